@@ -1,0 +1,4 @@
+//! One module per subcommand. Each returns the process exit status:
+//! 0 success, 1 findings (where a command has findings), 2 bad input.
+
+pub mod build;

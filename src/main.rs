@@ -1,0 +1,28 @@
+//! `eamos`: compile, check, slice and fly multidrone missions.
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+mod cmd;
+
+/// Compile multidrone missions into coloured Petri nets, prove them, slice
+/// them per drone and fly them.
+#[derive(Parser)]
+#[command(name = "eamos", version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Build(cmd::build::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Build(args) => cmd::build::run(args),
+    }
+}
