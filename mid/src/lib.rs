@@ -1,5 +1,24 @@
 //! The middle layer: one drone API for every platform, the capability
 //! profiles that describe what each drone type offers, and the adapters that
 //! drive a platform (the built-in simulator, MAVLink autopilots).
+//!
+//! - [`api`]: the [`Adapter`] trait every platform implements, typed
+//!   [`ActionError`]s, [`Telemetry`] and property evaluation.
+//! - [`uniform`]: [`Uniform`], the profile-checked, logged entry point the
+//!   executor calls.
+//! - [`clock`]: mission time, shared by a whole fleet.
+//! - [`log`]: records of the uniform and adapter logs.
 
+pub mod api;
+pub mod clock;
+pub mod log;
 pub mod profiles;
+pub mod uniform;
+
+pub use api::{
+    evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, Axis, CancellationToken,
+    FlightMode, MultirotorAction, PropertyArg, PropertyError, Telemetry, Value, Vec3,
+};
+pub use clock::MissionClock;
+pub use log::{LogRecord, LogSink, MemorySink, NullSink, SharedSink};
+pub use uniform::Uniform;

@@ -10,7 +10,9 @@ pub fn builtin() -> ProfileTable {
     let mut table = ProfileTable::new();
     for src in BUILTIN {
         let profile = ProfileTable::parse_profile(src).expect("built-in profiles are valid");
-        table.insert(profile).expect("built-in profiles have distinct names");
+        table
+            .insert(profile)
+            .expect("built-in profiles have distinct names");
     }
     table
 }
@@ -34,9 +36,22 @@ mod tests {
         let t = builtin();
         let q = t.get("Quadcopter").unwrap();
         for a in [
-            "Arm", "Disarm", "Takeoff", "Land", "FlyByX", "FlyByY", "FlyByZ", "FlyTo", "Hover",
-            "ReturnHome", "TurnOn", "PreFlightCheck", "Calibrate", "TurnOnCamera",
-            "AdjustCamera", "TakePhoto",
+            "Arm",
+            "Disarm",
+            "Takeoff",
+            "Land",
+            "FlyByX",
+            "FlyByY",
+            "FlyByZ",
+            "FlyTo",
+            "Hover",
+            "ReturnHome",
+            "TurnOn",
+            "PreFlightCheck",
+            "Calibrate",
+            "TurnOnCamera",
+            "AdjustCamera",
+            "TakePhoto",
         ] {
             assert!(q.actions.contains_key(a), "missing action {a}");
         }
