@@ -1,0 +1,891 @@
+//! From a net to a report: which exploration runs, and what each property
+//! reads from it.
+//!
+//! | property | decided by | reduction |
+//! | --- | --- | --- |
+//! | deadlock | dead markings of the exploration | stubborn sets (preserve every deadlock at its shortest depth) |
+//! | termination | backward search from markings with `final` marked over the explored graph | stubborn sets with the cycle proviso |
+//! | safety | structural concurrency (a proof when it finds no candidate); else monitors of the candidates | stubborn sets with the cycle proviso |
+//! | dead actions | `ActionStart` transitions never fired | stubborn sets with the cycle proviso |
+//! | conflicts | monitors of structurally concurrent running places | stubborn sets with the cycle proviso |
+//! | conditions | interval reasoning over property ranges | none needed |
+//!
+//! The one exploration serves every property: the cycle proviso costs little
+//! on mission nets and makes the reduced graph preserve fireability and the
+//! reachability of the end (see [`crate::explore`]). A net that turns out not
+//! to be 1-safe (PNML input, or a compiler bug) is explored again in full
+//! with token counters, which also decides boundedness.
+
+use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
+use std::sync::Arc;
+
+use crate::explore::{self, Bits, Bytes, Config, Encoding, Exploration, Stop};
+use crate::ptnet::{MonitorKind, PtNet};
+use crate::report::{
+    Finding, FindingKind, InputKind, Label, Property, PropertyResult, Report, Stats, Step, Trace,
+    Verdict,
+};
+use crate::structural::Concurrency;
+use eamos_lang::Span;
+
+/// How to check.
+#[derive(Clone)]
+pub struct Options {
+    /// Partial-order reduction with stubborn sets (on by default; off gives
+    /// full exploration, for comparison).
+    pub reduction: bool,
+    /// Exploration stops cleanly, with partial verdicts, past this many MB.
+    pub max_memory_mb: u64,
+    /// Called after each chunk of states with (states stored, states expanded).
+    pub progress: Option<Arc<dyn Fn(usize, usize) + Send + Sync>>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            reduction: true,
+            max_memory_mb: 4096,
+            progress: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for Options {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Options")
+            .field("reduction", &self.reduction)
+            .field("max_memory_mb", &self.max_memory_mb)
+            .finish()
+    }
+}
+
+/// An action as people name it.
+#[derive(Debug, Clone)]
+pub(crate) struct ActionInfo {
+    pub drone: String,
+    pub text: String,
+    pub span: Span,
+}
+
+/// What the checker needs to know about its input beyond the bare net.
+pub(crate) struct Subject {
+    pub pt: PtNet,
+    pub input: InputKind,
+    pub name: String,
+    /// Running places per action (mission input).
+    pub running: HashMap<u32, ActionInfo>,
+    /// Pairs of running places of one drone whose actions exclude each other.
+    pub exclusive: Vec<(u32, u32)>,
+    /// `ActionStart` transitions with their action.
+    pub starts: Vec<(u32, ActionInfo)>,
+    /// Findings and verdict of the condition analysis (mission input).
+    pub conditions: Option<(Vec<Finding>, usize)>,
+    /// Loop-back transitions (for the termination note).
+    pub loops: Vec<u32>,
+}
+
+pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
+    let Subject {
+        pt,
+        input,
+        name,
+        running,
+        exclusive,
+        starts,
+        conditions,
+        loops,
+    } = subject;
+    let final_consumed = pt
+        .final_place
+        .is_some_and(|f| !pt.consumers.get(f as usize).is_empty());
+    let reduction = opts.reduction && !final_consumed;
+    let max_bytes = (opts.max_memory_mb as usize).saturating_mul(1 << 20);
+    let progress = opts.progress.clone();
+    let progress_fn = progress
+        .as_deref()
+        .map(|f| f as &(dyn Fn(usize, usize) + Sync));
+    let mut cfg = Config {
+        reduction,
+        max_bytes,
+        keep_edges: pt.final_place.is_some(),
+        progress: progress_fn,
+    };
+
+    let mut ctx = Ctx {
+        input,
+        running,
+        starts,
+        loops,
+        findings: Vec::new(),
+        properties: Vec::new(),
+    };
+
+    if pt.fits_bits() {
+        let conc = Concurrency::compute(&pt);
+        let mut monitors: Vec<MonitorKind> = exclusive
+            .iter()
+            .filter(|&&(a, b)| conc.get(a, b))
+            .map(|&(a, b)| MonitorKind::Conflict { a, b })
+            .collect();
+        let structurally_safe = conc.unsafe_candidates().is_empty();
+        monitors.extend(
+            conc.unsafe_candidates()
+                .iter()
+                .map(|&(t, place)| MonitorKind::Unsafe { t, place }),
+        );
+        let net = pt.clone().with_monitors(monitors);
+        let ex = explore::explore::<Bits>(&net, &cfg);
+        let unsafe_hit = matches!(ex.stop, Some(Stop::Unsafe { .. }))
+            || net
+                .monitors
+                .iter()
+                .zip(&ex.monitor_hits)
+                .any(|(m, h)| matches!(m, MonitorKind::Unsafe { .. }) && h.is_some());
+        if !unsafe_hit {
+            let method = if reduction {
+                "breadth-first exploration, stubborn sets with the cycle proviso"
+            } else {
+                "breadth-first exploration, full"
+            };
+            ctx.evaluate::<Bits>(&net, &ex, method, Some(structurally_safe));
+            return ctx.finish(name, &net, &ex, method, conditions);
+        }
+    }
+    // Not 1-safe: count tokens, explore in full.
+    let monitors = exclusive
+        .iter()
+        .map(|&(a, b)| MonitorKind::Conflict { a, b })
+        .collect();
+    let net = pt.with_monitors(monitors);
+    cfg.reduction = false;
+    let ex = explore::explore::<Bytes>(&net, &cfg);
+    let method = "breadth-first exploration, full, with token counts";
+    ctx.evaluate::<Bytes>(&net, &ex, method, None);
+    ctx.finish(name, &net, &ex, method, conditions)
+}
+
+struct Ctx {
+    input: InputKind,
+    running: HashMap<u32, ActionInfo>,
+    starts: Vec<(u32, ActionInfo)>,
+    loops: Vec<u32>,
+    findings: Vec<Finding>,
+    properties: Vec<PropertyResult>,
+}
+
+fn result(property: Property, verdict: Verdict, method: impl Into<String>) -> PropertyResult {
+    PropertyResult {
+        property,
+        verdict,
+        method: method.into(),
+        notes: Vec::new(),
+    }
+}
+
+impl Ctx {
+    fn mission(&self) -> bool {
+        self.input == InputKind::Mission
+    }
+
+    fn stopped_reason(ex: &Exploration) -> String {
+        match ex.stop {
+            Some(Stop::Memory) => format!(
+                "nothing found in the first {} states; exploration stopped at the memory bound",
+                ex.store.len()
+            ),
+            Some(Stop::TooManyStates) => format!(
+                "nothing found in the first {} states; exploration stopped at the state limit",
+                ex.store.len()
+            ),
+            _ => "exploration stopped early".into(),
+        }
+    }
+
+    fn trace<E: Encoding>(&self, net: &PtNet, ex: &Exploration, state: u32) -> Trace {
+        let path = ex.store.path(state);
+        Trace {
+            steps: path.iter().map(|&t| step(net, t)).collect(),
+            cycle_from: None,
+            marking: marking::<E>(net, ex.store.marking(state)),
+        }
+    }
+
+    fn evaluate<E: Encoding>(
+        &mut self,
+        net: &PtNet,
+        ex: &Exploration,
+        method: &str,
+        structurally_safe: Option<bool>,
+    ) {
+        let complete = ex.complete();
+        let is_final = |id: u32| {
+            net.final_place
+                .is_some_and(|f| E::get(ex.store.marking(id), f) > 0)
+        };
+
+        // Safety and boundedness first: if the net is not 1-safe, say so.
+        let mut unsafe_found = false;
+        match &ex.stop {
+            Some(Stop::Unbounded { state, ancestor }) => {
+                unsafe_found = true;
+                let mut trace = self.trace::<E>(net, ex, *state);
+                let prefix = ex.store.path(*ancestor).len();
+                trace.cycle_from = Some(prefix);
+                let a = ex.store.marking(*ancestor);
+                let m = ex.store.marking(*state);
+                let grows: Vec<String> = (0..net.n_places() as u32)
+                    .filter(|&p| E::get(m, p) > E::get(a, p))
+                    .map(|p| format!("`{}`", net.places[p as usize].id))
+                    .collect();
+                self.findings.push(Finding {
+                    kind: FindingKind::Unbounded,
+                    message: format!(
+                        "the net is unbounded: repeating the last steps adds tokens to {} without end",
+                        grows.join(", ")
+                    ),
+                    labels: grows_labels::<E>(net, m, a),
+                    notes: self.bug_note(),
+                    trace: Some(trace),
+                });
+                self.properties.push(result(
+                    Property::Safety,
+                    Verdict::Violated,
+                    format!("{method}; a marking covering an ancestor proves unboundedness"),
+                ));
+            }
+            Some(Stop::Overflow { state, place, .. }) => {
+                unsafe_found = true;
+                self.findings.push(Finding {
+                    kind: FindingKind::Unbounded,
+                    message: format!(
+                        "place `{}` exceeds {} tokens",
+                        net.places[*place as usize].id,
+                        E::MAX
+                    ),
+                    labels: place_label(net, *place, "here"),
+                    notes: self.bug_note(),
+                    trace: Some(self.trace::<E>(net, ex, *state)),
+                });
+                self.properties.push(result(
+                    Property::Safety,
+                    Verdict::Violated,
+                    method.to_string(),
+                ));
+            }
+            _ => {
+                if E::MAX > 1 {
+                    // Counting: the first marking (BFS order) with two tokens.
+                    let first = (0..ex.store.len() as u32).find(|&id| {
+                        let m = ex.store.marking(id);
+                        (0..net.n_places() as u32).any(|p| E::get(m, p) > 1)
+                    });
+                    if let Some(id) = first {
+                        unsafe_found = true;
+                        let m = ex.store.marking(id);
+                        let p = (0..net.n_places() as u32)
+                            .find(|&p| E::get(m, p) > 1)
+                            .unwrap_or(0);
+                        let message = if self.mission() {
+                            format!(
+                                "place `{}` ({}) can hold {} tokens: the net compiler broke its 1-safety invariant",
+                                net.places[p as usize].id,
+                                net.places[p as usize].label,
+                                E::get(m, p)
+                            )
+                        } else {
+                            format!(
+                                "the net is not 1-safe: place `{}` can hold {} tokens",
+                                net.places[p as usize].id,
+                                E::get(m, p)
+                            )
+                        };
+                        self.findings.push(Finding {
+                            kind: FindingKind::Unsafe,
+                            message,
+                            labels: place_label(net, p, "two tokens here"),
+                            notes: self.bug_note(),
+                            trace: Some(self.trace::<E>(net, ex, id)),
+                        });
+                        self.properties.push(result(
+                            Property::Safety,
+                            Verdict::Violated,
+                            method.to_string(),
+                        ));
+                    } else if complete {
+                        let mut r = result(Property::Safety, Verdict::Holds, method.to_string());
+                        r.notes.push(format!(
+                            "every place holds at most {} token(s)",
+                            ex.max_tokens.max(1)
+                        ));
+                        self.properties.push(r);
+                    } else {
+                        self.properties.push(result(
+                            Property::Safety,
+                            Verdict::Unknown(Self::stopped_reason(ex)),
+                            method.to_string(),
+                        ));
+                    }
+                } else if structurally_safe == Some(true) {
+                    self.properties.push(result(
+                        Property::Safety,
+                        Verdict::Holds,
+                        "structural: no transition can put a token into a place that may already be marked",
+                    ));
+                } else if complete {
+                    self.properties.push(result(
+                        Property::Safety,
+                        Verdict::Holds,
+                        format!(
+                            "{method}; monitors on the places the structural check could not clear"
+                        ),
+                    ));
+                } else {
+                    self.properties.push(result(
+                        Property::Safety,
+                        Verdict::Unknown(Self::stopped_reason(ex)),
+                        method.to_string(),
+                    ));
+                }
+            }
+        }
+
+        // Deadlock.
+        let deadlocks: Vec<u32> = ex.dead.iter().copied().filter(|&d| !is_final(d)).collect();
+        if let Some(&d) = deadlocks.first() {
+            self.findings.push(self.deadlock_finding::<E>(net, ex, d));
+            self.properties.push(result(
+                Property::Deadlock,
+                Verdict::Violated,
+                method.to_string(),
+            ));
+        } else if complete {
+            self.properties.push(result(
+                Property::Deadlock,
+                Verdict::Holds,
+                method.to_string(),
+            ));
+        } else {
+            self.properties.push(result(
+                Property::Deadlock,
+                Verdict::Unknown(unsafe_or(unsafe_found, Self::stopped_reason(ex))),
+                method.to_string(),
+            ));
+        }
+
+        // Termination.
+        match net.final_place {
+            None => self.properties.push(result(
+                Property::Termination,
+                Verdict::NotApplicable("the net has no place `final`".into()),
+                "-",
+            )),
+            Some(_) if !complete => self.properties.push(result(
+                Property::Termination,
+                Verdict::Unknown(unsafe_or(unsafe_found, Self::stopped_reason(ex))),
+                method.to_string(),
+            )),
+            Some(_) => self.termination::<E>(net, ex, method, &deadlocks),
+        }
+
+        // Dead actions.
+        if !self.mission() {
+            self.properties.push(result(
+                Property::DeadActions,
+                Verdict::NotApplicable("a plain net has no actions".into()),
+                "-",
+            ));
+        } else if !complete {
+            self.properties.push(result(
+                Property::DeadActions,
+                Verdict::Unknown(unsafe_or(
+                    unsafe_found,
+                    "exploration stopped early".to_string(),
+                )),
+                method.to_string(),
+            ));
+        } else {
+            // Group instances by source span: a line is dead when none of
+            // its instances can start.
+            let mut by_span: BTreeMap<(u32, u32), (Vec<bool>, ActionInfo)> = BTreeMap::new();
+            for (t, a) in &self.starts {
+                let e = by_span
+                    .entry((a.span.start, a.span.end))
+                    .or_insert_with(|| (Vec::new(), a.clone()));
+                e.0.push(ex.fired[*t as usize]);
+            }
+            let mut any = false;
+            for (fired, a) in by_span.values() {
+                let dead = fired.iter().filter(|f| !**f).count();
+                if dead == 0 {
+                    continue;
+                }
+                any = true;
+                let message = if dead == fired.len() {
+                    format!("{} can never start", a.text)
+                } else {
+                    format!(
+                        "{} of the {} instances of {} can never start",
+                        dead,
+                        fired.len(),
+                        a.text
+                    )
+                };
+                self.findings.push(Finding {
+                    kind: FindingKind::DeadAction,
+                    message,
+                    labels: vec![Label {
+                        span: a.span,
+                        text: "never starts".into(),
+                    }],
+                    notes: vec![
+                        "no order of events and no sensor values lead here: the code is dead"
+                            .into(),
+                    ],
+                    trace: None,
+                });
+            }
+            self.properties.push(result(
+                Property::DeadActions,
+                if any {
+                    Verdict::Violated
+                } else {
+                    Verdict::Holds
+                },
+                method.to_string(),
+            ));
+        }
+
+        // Drone conflicts.
+        if !self.mission() {
+            self.properties.push(result(
+                Property::Conflicts,
+                Verdict::NotApplicable("a plain net has no drones".into()),
+                "-",
+            ));
+        } else {
+            let mut seen: BTreeSet<((u32, u32), (u32, u32))> = BTreeSet::new();
+            let mut hits: Vec<(u32, u32, u32)> = net
+                .monitors
+                .iter()
+                .zip(&ex.monitor_hits)
+                .filter_map(|(m, h)| match (m, h) {
+                    (MonitorKind::Conflict { a, b }, Some(s)) => Some((*s, *a, *b)),
+                    _ => None,
+                })
+                .collect();
+            hits.sort();
+            let mut any = false;
+            for (state, a, b) in hits {
+                let (Some(x), Some(y)) = (self.running.get(&a), self.running.get(&b)) else {
+                    continue;
+                };
+                let (x, y) = if (x.span.start, x.span.end) <= (y.span.start, y.span.end) {
+                    (x, y)
+                } else {
+                    (y, x)
+                };
+                if !seen.insert(((x.span.start, x.span.end), (y.span.start, y.span.end))) {
+                    continue;
+                }
+                any = true;
+                let message = if x.span == y.span {
+                    format!(
+                        "two instances of {} can run at the same time on {}",
+                        x.text, x.drone
+                    )
+                } else {
+                    format!(
+                        "{} and {} can run at the same time, but {}'s profile says they exclude each other",
+                        x.text, y.text, x.drone
+                    )
+                };
+                let mut labels = vec![Label {
+                    span: x.span,
+                    text: "runs".into(),
+                }];
+                if y.span != x.span {
+                    labels.push(Label {
+                        span: y.span,
+                        text: "while this runs".into(),
+                    });
+                }
+                self.findings.push(Finding {
+                    kind: FindingKind::DroneConflict,
+                    message,
+                    labels,
+                    notes: vec![format!(
+                        "order them (a SEQ_ block, or Signal/Await) so that {} runs one at a time",
+                        x.drone
+                    )],
+                    trace: Some(self.trace::<E>(net, ex, state)),
+                });
+            }
+            let verdict = if any {
+                Verdict::Violated
+            } else if complete {
+                Verdict::Holds
+            } else {
+                Verdict::Unknown(unsafe_or(unsafe_found, Self::stopped_reason(ex)))
+            };
+            self.properties.push(result(
+                Property::Conflicts,
+                verdict,
+                format!("{method}; structural concurrency picks the pairs to watch"),
+            ));
+        }
+    }
+
+    fn bug_note(&self) -> Vec<String> {
+        if self.mission() {
+            vec!["the net of a mission is 1-safe by construction: this is a bug of the eamos net compiler, please report it with this mission".into()]
+        } else {
+            Vec::new()
+        }
+    }
+
+    fn deadlock_finding<E: Encoding>(&self, net: &PtNet, ex: &Exploration, d: u32) -> Finding {
+        let m = ex.store.marking(d);
+        let mut labels: Vec<Label> = Vec::new();
+        let mut blocked: BTreeSet<u32> = BTreeSet::new();
+        E::for_each_marked(m, |p| {
+            if net.places[p as usize].auxiliary || net.places[p as usize].is_final {
+                return;
+            }
+            for &t in net
+                .consumers
+                .get(p as usize)
+                .iter()
+                .chain(net.readers.get(p as usize))
+            {
+                if !net.is_monitor(t) {
+                    blocked.insert(t);
+                }
+            }
+        });
+        let mut seen_spans = BTreeSet::new();
+        for &t in &blocked {
+            let info = &net.steps[t as usize];
+            let missing: Vec<u32> = net
+                .pre
+                .get(t as usize)
+                .iter()
+                .chain(net.read.get(t as usize))
+                .filter(|&&(p, w)| E::get(m, p) < w)
+                .map(|&(p, _)| p)
+                .collect();
+            let Some(span) = info.span else { continue };
+            if !seen_spans.insert((span.start, span.end)) {
+                continue;
+            }
+            let events: Vec<&str> = missing
+                .iter()
+                .filter_map(|&p| net.places[p as usize].event.as_deref())
+                .collect();
+            let text = if !events.is_empty() {
+                format!(
+                    "waits for event \"{}\", which was not signalled and no longer can be",
+                    events.join("\", \"")
+                )
+            } else if info.kind == "Join" {
+                "waits for its other branches, which cannot finish".to_string()
+            } else {
+                format!(
+                    "cannot happen: it also needs {}",
+                    missing
+                        .iter()
+                        .map(|&p| format!("`{}`", net.places[p as usize].label))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
+            // Awaits first: they are the usual culprits.
+            let label = Label { span, text };
+            if info.kind == "Await" {
+                labels.insert(0, label);
+            } else {
+                labels.push(label);
+            }
+        }
+        labels.truncate(8);
+        let message = match (self.input, net.final_place.is_some()) {
+            (InputKind::Mission, _) => {
+                "the mission can get stuck: no step can happen and it has not ended".to_string()
+            }
+            (InputKind::Pnml, true) => {
+                "a dead marking is reachable without `final` being marked".to_string()
+            }
+            (InputKind::Pnml, false) => "a dead marking is reachable".to_string(),
+        };
+        Finding {
+            kind: FindingKind::Deadlock,
+            message,
+            labels,
+            notes: Vec::new(),
+            trace: Some(self.trace::<E>(net, ex, d)),
+        }
+    }
+
+    fn termination<E: Encoding>(
+        &mut self,
+        net: &PtNet,
+        ex: &Exploration,
+        method: &str,
+        deadlocks: &[u32],
+    ) {
+        let n = ex.store.len();
+        let f = net.final_place.unwrap_or(0);
+        // Reverse edges.
+        let mut rev_off = vec![0u32; n + 1];
+        for s in 0..n {
+            for k in ex.edge_offsets[s]..ex.edge_offsets[s + 1] {
+                rev_off[ex.edges[k as usize] as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            rev_off[i + 1] += rev_off[i];
+        }
+        let mut fill = rev_off.clone();
+        let mut rev = vec![0u32; ex.edges.len()];
+        for s in 0..n {
+            for k in ex.edge_offsets[s]..ex.edge_offsets[s + 1] {
+                let t = ex.edges[k as usize] as usize;
+                rev[fill[t] as usize] = s as u32;
+                fill[t] += 1;
+            }
+        }
+        let backward = |targets: &mut dyn Iterator<Item = u32>| {
+            let mut reach = vec![false; n];
+            let mut q: VecDeque<u32> = VecDeque::new();
+            for t in targets {
+                if !reach[t as usize] {
+                    reach[t as usize] = true;
+                    q.push_back(t);
+                }
+            }
+            while let Some(s) = q.pop_front() {
+                for &p in &rev[rev_off[s as usize] as usize..rev_off[s as usize + 1] as usize] {
+                    if !reach[p as usize] {
+                        reach[p as usize] = true;
+                        q.push_back(p);
+                    }
+                }
+            }
+            reach
+        };
+        let ends = backward(&mut (0..n as u32).filter(|&s| E::get(ex.store.marking(s), f) > 0));
+        let mut r = result(Property::Termination, Verdict::Holds, method.to_string());
+        let bad: Vec<u32> = (0..n as u32).filter(|&s| !ends[s as usize]).collect();
+        if !bad.is_empty() {
+            r.verdict = Verdict::Violated;
+            let to_dead = backward(&mut deadlocks.iter().copied());
+            if let Some(&b) = bad.iter().find(|&&b| !to_dead[b as usize]) {
+                self.findings
+                    .push(self.livelock_finding::<E>(net, ex, b, &ends));
+            } else {
+                r.notes.push(
+                    "every marking that cannot reach the end leads to the deadlock reported".into(),
+                );
+            }
+        } else {
+            let mut loops: Vec<Span> = self
+                .loops
+                .iter()
+                .filter(|&&t| ex.fired[t as usize])
+                .filter_map(|&t| net.steps[t as usize].span)
+                .collect();
+            loops.sort_by_key(|s| (s.start, s.end));
+            loops.dedup();
+            if !loops.is_empty() {
+                r.notes.push(format!(
+                    "the end is always reachable, but {} loop(s) can repeat for as long as their conditions let them: the mission ends only if the conditions do change",
+                    loops.len()
+                ));
+            }
+        }
+        self.properties.push(r);
+    }
+
+    /// A marking from which neither the end nor a deadlock is reachable: the
+    /// run goes round forever. The trace is a lasso.
+    fn livelock_finding<E: Encoding>(
+        &self,
+        net: &PtNet,
+        ex: &Exploration,
+        b: u32,
+        ends: &[bool],
+    ) -> Finding {
+        // Depth-first search from b for a cycle (all of it cannot reach the end).
+        let n = ex.store.len();
+        let mut colour = vec![0u8; n];
+        let mut stack: Vec<(u32, u64)> = vec![(b, ex.edge_offsets[b as usize])];
+        let mut via: Vec<u32> = Vec::new();
+        colour[b as usize] = 1;
+        let mut cycle: Option<(usize, u32)> = None;
+        while let Some(&(s, k)) = stack.last() {
+            if k < ex.edge_offsets[s as usize + 1] {
+                let e = k as usize;
+                if let Some(top) = stack.last_mut() {
+                    top.1 += 1;
+                }
+                let t = ex.edges[e];
+                debug_assert!(!ends[t as usize]);
+                match colour[t as usize] {
+                    0 => {
+                        colour[t as usize] = 1;
+                        via.push(ex.edge_trans[e]);
+                        stack.push((t, ex.edge_offsets[t as usize]));
+                    }
+                    1 => {
+                        let pos = stack.iter().position(|&(x, _)| x == t).unwrap_or(0);
+                        via.push(ex.edge_trans[e]);
+                        cycle = Some((pos, t));
+                        break;
+                    }
+                    _ => {}
+                }
+            } else {
+                colour[s as usize] = 2;
+                stack.pop();
+                via.pop();
+            }
+        }
+        let mut trace = self.trace::<E>(net, ex, b);
+        let prefix = trace.steps.len();
+        for &t in &via {
+            trace.steps.push(step(net, t));
+        }
+        let mut labels = Vec::new();
+        if let Some((pos, _)) = cycle {
+            trace.cycle_from = Some(prefix + pos);
+            let mut spans = BTreeSet::new();
+            for &t in &via[pos..] {
+                let s = &net.steps[t as usize];
+                if matches!(s.kind.as_str(), "LoopBack" | "Branch") {
+                    if let Some(sp) = s.span {
+                        if spans.insert((sp.start, sp.end)) {
+                            labels.push(Label {
+                                span: sp,
+                                text: "goes round here".into(),
+                            });
+                        }
+                    }
+                }
+            }
+            trace.marking = Vec::new();
+        }
+        Finding {
+            kind: FindingKind::NonTermination,
+            message: if self.mission() {
+                "the mission can reach a state from which it can never end: it can only go round a loop"
+                    .into()
+            } else {
+                "a marking is reachable from which `final` can never be marked".into()
+            },
+            labels,
+            notes: Vec::new(),
+            trace: Some(trace),
+        }
+    }
+
+    fn finish(
+        mut self,
+        name: String,
+        net: &PtNet,
+        ex: &Exploration,
+        method: &str,
+        conditions: Option<(Vec<Finding>, usize)>,
+    ) -> Report {
+        match conditions {
+            Some((findings, checked)) => {
+                let verdict = if findings.is_empty() {
+                    Verdict::Holds
+                } else {
+                    Verdict::Violated
+                };
+                self.findings.extend(findings);
+                self.properties.push(result(
+                    Property::Conditions,
+                    verdict,
+                    format!("interval reasoning over property ranges ({checked} condition(s))"),
+                ));
+            }
+            None => self.properties.push(result(
+                Property::Conditions,
+                Verdict::NotApplicable("a plain net has no conditions".into()),
+                "-",
+            )),
+        }
+        self.properties.sort_by_key(|r| r.property);
+        self.findings.sort_by_key(|f| f.kind);
+        Report {
+            name,
+            input: self.input,
+            properties: self.properties,
+            findings: self.findings,
+            stats: Stats {
+                places: net.n_places(),
+                transitions: net.n_real,
+                states: ex.store.len(),
+                edges: ex.edge_count,
+                full_expansions: ex.full_expansions,
+                seconds: ex.seconds,
+                memory_bytes: ex.memory_bytes(),
+                reduction: if method.contains("stubborn") {
+                    "stubborn sets".into()
+                } else {
+                    "none".into()
+                },
+                complete: ex.complete(),
+                max_tokens: ex.max_tokens,
+            },
+        }
+    }
+}
+
+fn unsafe_or(unsafe_found: bool, reason: String) -> String {
+    if unsafe_found {
+        "the net is not 1-safe or not bounded: see that finding".into()
+    } else {
+        reason
+    }
+}
+
+fn step(net: &PtNet, t: u32) -> Step {
+    let s = &net.steps[t as usize];
+    Step {
+        transition: s.id.clone(),
+        kind: s.kind.clone(),
+        text: s.text.clone(),
+        internal: s.internal,
+        span: s.span,
+        condition_held: s.guard.map(|(_, held)| held),
+    }
+}
+
+fn marking<E: Encoding>(net: &PtNet, m: &[u64]) -> Vec<(String, u32)> {
+    let mut out = Vec::new();
+    E::for_each_marked(m, |p| {
+        if !net.places[p as usize].synthetic {
+            out.push((net.places[p as usize].id.clone(), E::get(m, p)));
+        }
+    });
+    out
+}
+
+fn place_label(net: &PtNet, p: u32, text: &str) -> Vec<Label> {
+    net.places[p as usize]
+        .span
+        .map(|span| Label {
+            span,
+            text: text.into(),
+        })
+        .into_iter()
+        .collect()
+}
+
+fn grows_labels<E: Encoding>(net: &PtNet, m: &[u64], a: &[u64]) -> Vec<Label> {
+    (0..net.n_places() as u32)
+        .filter(|&p| E::get(m, p) > E::get(a, p))
+        .flat_map(|p| place_label(net, p, "grows"))
+        .collect()
+}

@@ -1,0 +1,713 @@
+//! Breadth-first exploration of the reachable markings, with stubborn sets.
+//!
+//! # Store
+//! Markings are fixed-width rows of `u64` words in one arena (one bit per
+//! place for 1-safe nets, one byte per place otherwise), identified by a
+//! `u32` id; a `hashbrown` table maps a marking's hash to its id, keeping 32
+//! bits of the hash beside the id so that growing the table never touches the
+//! arena. Every state keeps its BFS parent and the transition that led to it,
+//! so the path to any state is a shortest path of the explored graph.
+//!
+//! # Parallelism
+//! States are expanded in id order, in chunks: the successors of a chunk are
+//! computed in parallel (rayon) against the store as it stands, then inserted
+//! one by one in chunk order. Ids, and so counterexamples, therefore do not
+//! depend on the number of threads or on scheduling.
+//!
+//! # Reduction
+//! At each marking a *stubborn set* `S` is built and only its enabled
+//! transitions are fired. The construction (Valmari's, for P/T nets with read
+//! arcs) starts from one enabled transition and closes under:
+//! * `t ∈ S` enabled: add every transition that consumes a place `t` consumes
+//!   or reads, and every transition that reads a place `t` consumes (all that
+//!   could disable `t` or be disabled by it);
+//! * `t ∈ S` disabled: pick one input place short of tokens (the *scapegoat*)
+//!   and add every transition that raises its count (nothing outside `S` can
+//!   then enable `t`).
+//!
+//! This gives D1 (a transition of `S` commutes with any sequence of
+//! transitions outside `S`) and D2 with every enabled transition of `S` a key
+//! transition (no sequence outside `S` disables it). Several seeds are tried
+//! and the set with the fewest enabled transitions wins.
+//!
+//! What the reduced graph preserves, and why:
+//! * **Deadlocks**, with their shortest distance. If `M -σ-> D` with `D`
+//!   dead, some transition of `σ` is in `S(M)` (otherwise a key transition,
+//!   which `σ` cannot disable, would be enabled in `D`); moving the first one
+//!   to the front (D1) gives a path of the same length through the reduced
+//!   graph. So breadth-first search finds a deadlock at the same depth as full
+//!   exploration would.
+//! * **Fireability of every transition** (used for dead actions and for the
+//!   monitors of [`crate::ptnet`]). This needs the *cycle proviso*: a marking
+//!   with a reduced successor that is already in the store is expanded in
+//!   full. Then every cycle of the reduced graph holds a fully expanded
+//!   marking (the marking of the cycle expanded last found its successor on
+//!   the cycle already stored), so a transition that stays enabled while keys
+//!   fire around it cannot be ignored forever.
+//! * **"The final marking stays reachable"** (termination). For a reduced
+//!   marking, a path to a marking with `final` marked can be replayed in the
+//!   reduced graph by the same argument, provided nothing consumes from
+//!   `final` (true of mission nets; checked for PNML input, else reduction is
+//!   switched off); and a reachable marking from which `final` is unreachable
+//!   has a reduced counterpart, because keys fired in front of the path to it
+//!   keep it unreachable.
+//!
+//! Monitors are never fired; they are checked in every explored marking
+//! (finding them anywhere is sound), and they take part in the closure as
+//! readers so that the preservation argument covers them.
+//!
+//! Non-safe nets (PNML input) are explored in full with byte counters; a
+//! marking that strictly covers one of its BFS ancestors proves the net
+//! unbounded (the path between them can be repeated forever).
+
+use std::time::Instant;
+
+use hashbrown::HashTable;
+use rayon::prelude::*;
+
+use crate::ptnet::PtNet;
+
+/// How markings are packed into words.
+pub(crate) trait Encoding: Copy + Send + Sync + 'static {
+    const MAX: u32;
+    fn words(places: usize) -> usize;
+    fn get(m: &[u64], p: u32) -> u32;
+    fn set(m: &mut [u64], p: u32, v: u32);
+    fn for_each_marked(m: &[u64], f: impl FnMut(u32));
+}
+
+/// One bit per place: 1-safe nets.
+#[derive(Clone, Copy)]
+pub(crate) struct Bits;
+
+/// One byte per place: up to 255 tokens.
+#[derive(Clone, Copy)]
+pub(crate) struct Bytes;
+
+impl Encoding for Bits {
+    const MAX: u32 = 1;
+    fn words(places: usize) -> usize {
+        places.div_ceil(64).max(1)
+    }
+    #[inline]
+    fn get(m: &[u64], p: u32) -> u32 {
+        (m[p as usize >> 6] >> (p & 63)) as u32 & 1
+    }
+    #[inline]
+    fn set(m: &mut [u64], p: u32, v: u32) {
+        let w = &mut m[p as usize >> 6];
+        *w = (*w & !(1 << (p & 63))) | ((v as u64 & 1) << (p & 63));
+    }
+    fn for_each_marked(m: &[u64], mut f: impl FnMut(u32)) {
+        for (i, &w) in m.iter().enumerate() {
+            let mut w = w;
+            while w != 0 {
+                f((i * 64) as u32 + w.trailing_zeros());
+                w &= w - 1;
+            }
+        }
+    }
+}
+
+impl Encoding for Bytes {
+    const MAX: u32 = 255;
+    fn words(places: usize) -> usize {
+        places.div_ceil(8).max(1)
+    }
+    #[inline]
+    fn get(m: &[u64], p: u32) -> u32 {
+        (m[p as usize >> 3] >> ((p & 7) * 8)) as u32 & 0xff
+    }
+    #[inline]
+    fn set(m: &mut [u64], p: u32, v: u32) {
+        let shift = (p & 7) * 8;
+        let w = &mut m[p as usize >> 3];
+        *w = (*w & !(0xff << shift)) | ((v as u64 & 0xff) << shift);
+    }
+    fn for_each_marked(m: &[u64], mut f: impl FnMut(u32)) {
+        for (i, &w) in m.iter().enumerate() {
+            let mut w = w;
+            while w != 0 {
+                let byte = w.trailing_zeros() / 8;
+                f((i * 8) as u32 + byte);
+                w &= !(0xff << (byte * 8));
+            }
+        }
+    }
+}
+
+#[inline]
+fn hash_words(m: &[u64]) -> u64 {
+    const K: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut h = K ^ (m.len() as u64);
+    for &w in m {
+        h = (h ^ w).wrapping_mul(K);
+        h ^= h >> 32;
+    }
+    // Final avalanche (murmur3's fmix64) so both ends of the word are good.
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+    h ^ (h >> 33)
+}
+
+/// The table keeps 32 bits of the hash beside the id; this widens them back
+/// into the 64 bits hashbrown wants (its top bits pick control bytes, its low
+/// bits pick buckets).
+#[inline]
+fn widen(h32: u32) -> u64 {
+    (h32 as u64) << 32 | h32 as u64
+}
+
+/// All explored markings.
+pub(crate) struct Store {
+    pub words: usize,
+    arena: Vec<u64>,
+    /// BFS parent and the transition fired from it (`u32::MAX` for the root).
+    pub parent: Vec<u32>,
+    pub via: Vec<u32>,
+    table: HashTable<u64>,
+}
+
+impl Store {
+    fn new(words: usize) -> Self {
+        Store {
+            words,
+            arena: Vec::new(),
+            parent: Vec::new(),
+            via: Vec::new(),
+            table: HashTable::new(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.parent.len()
+    }
+
+    pub fn marking(&self, id: u32) -> &[u64] {
+        let i = id as usize * self.words;
+        &self.arena[i..i + self.words]
+    }
+
+    fn find(&self, m: &[u64], h: u64) -> Option<u32> {
+        let h32 = h as u32;
+        self.table
+            .find(widen(h32), |&e| {
+                e >> 32 == h32 as u64 && self.marking(e as u32) == m
+            })
+            .map(|&e| e as u32)
+    }
+
+    /// Inserts a marking; returns its id and whether it is new.
+    fn insert(&mut self, m: &[u64], h: u64, parent: u32, via: u32) -> (u32, bool) {
+        if let Some(id) = self.find(m, h) {
+            return (id, false);
+        }
+        let id = self.parent.len() as u32;
+        self.arena.extend_from_slice(m);
+        self.parent.push(parent);
+        self.via.push(via);
+        let h32 = h as u32;
+        self.table
+            .insert_unique(widen(h32), (h32 as u64) << 32 | id as u64, |&e| {
+                widen((e >> 32) as u32)
+            });
+        (id, true)
+    }
+
+    fn bytes(&self) -> usize {
+        self.arena.capacity() * 8
+            + self.parent.capacity() * 4
+            + self.via.capacity() * 4
+            + self.table.capacity() * 9
+    }
+
+    /// The transitions from the root to a state.
+    pub fn path(&self, mut id: u32) -> Vec<u32> {
+        let mut out = Vec::new();
+        while self.parent[id as usize] != u32::MAX {
+            out.push(self.via[id as usize]);
+            id = self.parent[id as usize];
+        }
+        out.reverse();
+        out
+    }
+}
+
+/// How a run is set up.
+#[derive(Clone)]
+pub(crate) struct Config<'a> {
+    pub reduction: bool,
+    pub max_bytes: usize,
+    /// Keep the reduced graph's edges (for the termination analysis).
+    pub keep_edges: bool,
+    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+}
+
+/// Why exploration stopped before the end.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Stop {
+    /// The memory bound was reached.
+    Memory,
+    /// A 1-safe exploration met a second token: `t` fired from `state`.
+    Unsafe { state: u32, t: u32, place: u32 },
+    /// A place would exceed the counter's capacity.
+    Overflow { state: u32, t: u32, place: u32 },
+    /// `state` strictly covers its ancestor `ancestor`.
+    Unbounded { state: u32, ancestor: u32 },
+    /// More states than ids.
+    TooManyStates,
+}
+
+pub(crate) struct Exploration {
+    pub store: Store,
+    pub stop: Option<Stop>,
+    /// Dead markings, in BFS order.
+    pub dead: Vec<u32>,
+    /// Transitions fired somewhere (bit per real transition).
+    pub fired: Vec<bool>,
+    /// For each monitor, the first marking it was enabled in.
+    pub monitor_hits: Vec<Option<u32>>,
+    /// Successors of each expanded state (CSR), if kept.
+    pub edge_offsets: Vec<u64>,
+    pub edges: Vec<u32>,
+    /// The transition of each kept edge.
+    pub edge_trans: Vec<u32>,
+    pub expanded: usize,
+    pub full_expansions: usize,
+    pub edge_count: u64,
+    pub max_tokens: u32,
+    pub seconds: f64,
+}
+
+impl Exploration {
+    pub fn complete(&self) -> bool {
+        self.stop.is_none()
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.store.bytes()
+            + self.edges.capacity() * 4
+            + self.edge_trans.capacity() * 4
+            + self.edge_offsets.capacity() * 8
+    }
+}
+
+/// Per-thread buffers, stamped instead of cleared.
+struct Scratch {
+    gen: u32,
+    enabled_at: Vec<u32>,
+    seen_at: Vec<u32>,
+    in_s: Vec<u32>,
+    enabled: Vec<u32>,
+    stack: Vec<u32>,
+    cur: Vec<u32>,
+    best: Vec<u32>,
+    buf: Vec<u64>,
+}
+
+impl Scratch {
+    fn new(n: usize, words: usize) -> Self {
+        Scratch {
+            gen: 0,
+            enabled_at: vec![0; n],
+            seen_at: vec![0; n],
+            in_s: vec![0; n],
+            enabled: Vec::new(),
+            stack: Vec::new(),
+            cur: Vec::new(),
+            best: Vec::new(),
+            buf: vec![0; words],
+        }
+    }
+
+    fn next_gen(&mut self) -> u32 {
+        if self.gen == u32::MAX {
+            self.gen = 0;
+            self.enabled_at.iter_mut().for_each(|x| *x = 0);
+            self.seen_at.iter_mut().for_each(|x| *x = 0);
+            self.in_s.iter_mut().for_each(|x| *x = 0);
+        }
+        self.gen += 1;
+        self.gen
+    }
+}
+
+/// What expanding one marking produced.
+#[derive(Default)]
+struct Expanded {
+    dead: bool,
+    full: bool,
+    trans: Vec<u32>,
+    succ: Vec<u64>,
+    hashes: Vec<u64>,
+    monitors: Vec<u32>,
+    overflow: Option<(u32, u32)>,
+}
+
+#[inline]
+fn enabled<E: Encoding>(net: &PtNet, m: &[u64], t: usize) -> bool {
+    net.pre.get(t).iter().all(|&(p, w)| E::get(m, p) >= w)
+        && net.read.get(t).iter().all(|&(p, w)| E::get(m, p) >= w)
+}
+
+/// Fires `t` into `out`; on a count above the encoding's capacity returns
+/// the place.
+#[inline]
+fn fire<E: Encoding>(net: &PtNet, m: &[u64], t: usize, out: &mut [u64]) -> Result<(), u32> {
+    out.copy_from_slice(m);
+    for &(p, w) in net.pre.get(t) {
+        E::set(out, p, E::get(out, p) - w);
+    }
+    for &(p, w) in net.post.get(t) {
+        let v = E::get(out, p) + w;
+        if v > E::MAX {
+            return Err(p);
+        }
+        E::set(out, p, v);
+    }
+    Ok(())
+}
+
+fn expand<E: Encoding>(
+    net: &PtNet,
+    store: &Store,
+    reduction: bool,
+    s: &mut Scratch,
+    m: &[u64],
+) -> Expanded {
+    let gen = s.next_gen();
+    s.enabled.clear();
+    {
+        let Scratch {
+            enabled_at,
+            seen_at,
+            enabled: en,
+            ..
+        } = s;
+        let mut consider = |t: u32| {
+            if seen_at[t as usize] != gen {
+                seen_at[t as usize] = gen;
+                if enabled::<E>(net, m, t as usize) {
+                    enabled_at[t as usize] = gen;
+                    en.push(t);
+                }
+            }
+        };
+        E::for_each_marked(m, |p| {
+            for &t in net.consumers.get(p as usize) {
+                consider(t);
+            }
+            for &t in net.readers.get(p as usize) {
+                consider(t);
+            }
+        });
+        for &t in &net.sources {
+            consider(t);
+        }
+    }
+    s.enabled.sort_unstable();
+    let mut out = Expanded::default();
+    let real_enabled = s.enabled.partition_point(|&t| !net.is_monitor(t));
+    out.monitors = s.enabled[real_enabled..]
+        .iter()
+        .map(|&t| t - net.n_real as u32)
+        .collect();
+    if real_enabled == 0 {
+        out.dead = true;
+        return out;
+    }
+    // Two tokens are checked on every enabled transition, fired or not: it
+    // costs little and finds compiler bugs early.
+    for &t in &s.enabled[..real_enabled] {
+        if let Err(p) = fire::<E>(net, m, t as usize, &mut s.buf) {
+            out.overflow = Some((t, p));
+            return out;
+        }
+    }
+    let chosen: Vec<u32> = if reduction && real_enabled > 1 {
+        stubborn::<E>(net, m, s, gen, real_enabled);
+        std::mem::take(&mut s.best)
+    } else {
+        s.enabled[..real_enabled].to_vec()
+    };
+    out.full = chosen.len() == real_enabled;
+    successors::<E>(net, m, &chosen, s, &mut out);
+    if !out.full {
+        // Cycle proviso: a reduced successor already stored may close a
+        // cycle; expand in full.
+        let closes = out.hashes.iter().enumerate().any(|(i, &h)| {
+            store
+                .find(&out.succ[i * m.len()..(i + 1) * m.len()], h)
+                .is_some()
+        });
+        if closes {
+            out.trans.clear();
+            out.succ.clear();
+            out.hashes.clear();
+            out.full = true;
+            let all = s.enabled[..real_enabled].to_vec();
+            successors::<E>(net, m, &all, s, &mut out);
+        }
+    }
+    s.best = chosen;
+    out
+}
+
+fn successors<E: Encoding>(
+    net: &PtNet,
+    m: &[u64],
+    ts: &[u32],
+    s: &mut Scratch,
+    out: &mut Expanded,
+) {
+    for &t in ts {
+        // Overflow was ruled out above.
+        let _ = fire::<E>(net, m, t as usize, &mut s.buf);
+        out.trans.push(t);
+        out.hashes.push(hash_words(&s.buf));
+        out.succ.extend_from_slice(&s.buf);
+    }
+}
+
+/// Leaves in `s.best` the enabled transitions of the smallest stubborn set
+/// found from a few seeds.
+fn stubborn<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, real_enabled: usize) {
+    const SEEDS: usize = 16;
+    s.best.clear();
+    s.best.extend_from_slice(&s.enabled[..real_enabled]);
+    for i in 0..real_enabled.min(SEEDS) {
+        let seed = s.enabled[i];
+        if closure::<E>(net, m, s, gen, seed) && s.cur.len() < s.best.len() {
+            std::mem::swap(&mut s.cur, &mut s.best);
+            if s.best.len() == 1 {
+                break;
+            }
+        }
+    }
+    s.best.sort_unstable();
+}
+
+/// The closure from one seed; its enabled transitions end in `s.cur`. Gives
+/// up (returns false) once it cannot beat the best set so far.
+fn closure<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, seed: u32) -> bool {
+    // A fresh stamp for membership, distinct from the enabled stamps.
+    let sgen = s.next_gen();
+    let Scratch {
+        enabled_at,
+        in_s,
+        stack,
+        cur,
+        best,
+        ..
+    } = s;
+    let limit = best.len();
+    cur.clear();
+    stack.clear();
+    in_s[seed as usize] = sgen;
+    stack.push(seed);
+    while let Some(t) = stack.pop() {
+        let ti = t as usize;
+        if enabled_at[ti] == gen {
+            if net.is_monitor(t) {
+                // Found in this marking anyway: nothing to protect.
+                continue;
+            }
+            cur.push(t);
+            if cur.len() >= limit {
+                return false;
+            }
+            for &u in net.conflicts.get(ti) {
+                if in_s[u as usize] != sgen {
+                    in_s[u as usize] = sgen;
+                    stack.push(u);
+                }
+            }
+        } else {
+            let p = scapegoat::<E>(net, m, in_s, sgen, ti);
+            for &u in net.producers.get(p as usize) {
+                if in_s[u as usize] != sgen {
+                    in_s[u as usize] = sgen;
+                    stack.push(u);
+                }
+            }
+        }
+    }
+    true
+}
+
+/// An input of a disabled transition that lacks tokens: preferably one whose
+/// producers are all in the set already, else the one with fewest producers.
+fn scapegoat<E: Encoding>(net: &PtNet, m: &[u64], in_s: &[u32], sgen: u32, t: usize) -> u32 {
+    let mut best: Option<(usize, u32)> = None;
+    for &(p, w) in net.pre.get(t).iter().chain(net.read.get(t)) {
+        if E::get(m, p) >= w {
+            continue;
+        }
+        let prods = net.producers.get(p as usize);
+        let missing = prods.iter().filter(|&&u| in_s[u as usize] != sgen).count();
+        if missing == 0 {
+            return p;
+        }
+        if best.is_none_or(|(b, _)| missing < b) {
+            best = Some((missing, p));
+        }
+    }
+    // A disabled transition has an input short of tokens.
+    best.map_or(0, |(_, p)| p)
+}
+
+/// Whether `a` covers `b` strictly.
+fn strictly_covers<E: Encoding>(a: &[u64], b: &[u64], places: usize) -> bool {
+    let mut bigger = false;
+    for p in 0..places as u32 {
+        let (x, y) = (E::get(a, p), E::get(b, p));
+        if x < y {
+            return false;
+        }
+        bigger |= x > y;
+    }
+    bigger
+}
+
+pub(crate) fn initial_marking<E: Encoding>(net: &PtNet) -> Vec<u64> {
+    let mut m0 = vec![0u64; E::words(net.n_places())];
+    for (p, &c) in net.initial.iter().enumerate() {
+        E::set(&mut m0, p as u32, c.min(E::MAX));
+    }
+    m0
+}
+
+/// Explores the reachable markings of `net`.
+pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
+    let start = Instant::now();
+    let words = E::words(net.n_places());
+    let mut ex = Exploration {
+        store: Store::new(words),
+        stop: None,
+        dead: Vec::new(),
+        fired: vec![false; net.n_real],
+        monitor_hits: vec![None; net.monitors.len()],
+        edge_offsets: Vec::new(),
+        edges: Vec::new(),
+        edge_trans: Vec::new(),
+        expanded: 0,
+        full_expansions: 0,
+        edge_count: 0,
+        max_tokens: 0,
+        seconds: 0.0,
+    };
+    let m0 = initial_marking::<E>(net);
+    ex.store.insert(&m0, hash_words(&m0), u32::MAX, u32::MAX);
+    ex.max_tokens = net.initial.iter().copied().max().unwrap_or(0);
+    if cfg.keep_edges {
+        ex.edge_offsets.push(0);
+    }
+    let counting = E::MAX > 1;
+    let n_all = net.n_all();
+    let mut cursor = 0usize;
+    let mut chunk = 64usize;
+    'outer: while cursor < ex.store.len() {
+        let hi = ex.store.len().min(cursor + chunk);
+        let store = &ex.store;
+        let reduction = cfg.reduction;
+        let results: Vec<Expanded> = if hi - cursor < 32 {
+            let mut s = Scratch::new(n_all, words);
+            (cursor..hi)
+                .map(|id| expand::<E>(net, store, reduction, &mut s, store.marking(id as u32)))
+                .collect()
+        } else {
+            (cursor..hi)
+                .into_par_iter()
+                .map_init(
+                    || Scratch::new(n_all, words),
+                    |s, id| expand::<E>(net, store, reduction, s, store.marking(id as u32)),
+                )
+                .collect()
+        };
+        for (i, r) in results.into_iter().enumerate() {
+            let id = (cursor + i) as u32;
+            ex.expanded += 1;
+            for &mi in &r.monitors {
+                let hit = &mut ex.monitor_hits[mi as usize];
+                if hit.is_none() {
+                    *hit = Some(id);
+                }
+            }
+            if let Some((t, place)) = r.overflow {
+                ex.stop = Some(if counting {
+                    Stop::Overflow {
+                        state: id,
+                        t,
+                        place,
+                    }
+                } else {
+                    Stop::Unsafe {
+                        state: id,
+                        t,
+                        place,
+                    }
+                });
+                break 'outer;
+            }
+            if r.dead {
+                ex.dead.push(id);
+            }
+            if r.full && !r.dead {
+                ex.full_expansions += 1;
+            }
+            for (k, &t) in r.trans.iter().enumerate() {
+                ex.fired[t as usize] = true;
+                let succ = &r.succ[k * words..(k + 1) * words];
+                if ex.store.len() >= u32::MAX as usize - 1 {
+                    ex.stop = Some(Stop::TooManyStates);
+                    break 'outer;
+                }
+                let (sid, new) = ex.store.insert(succ, r.hashes[k], id, t);
+                ex.edge_count += 1;
+                if cfg.keep_edges {
+                    ex.edges.push(sid);
+                    ex.edge_trans.push(t);
+                }
+                if new && counting {
+                    for p in 0..net.n_places() as u32 {
+                        ex.max_tokens = ex.max_tokens.max(E::get(succ, p));
+                    }
+                    let mut a = id;
+                    loop {
+                        if strictly_covers::<E>(succ, ex.store.marking(a), net.n_places()) {
+                            ex.stop = Some(Stop::Unbounded {
+                                state: sid,
+                                ancestor: a,
+                            });
+                            break 'outer;
+                        }
+                        let p = ex.store.parent[a as usize];
+                        if p == u32::MAX {
+                            break;
+                        }
+                        a = p;
+                    }
+                }
+            }
+            if cfg.keep_edges {
+                ex.edge_offsets.push(ex.edges.len() as u64);
+            }
+        }
+        cursor = hi;
+        chunk = (chunk * 2).min(1 << 14);
+        if let Some(f) = cfg.progress {
+            f(ex.store.len(), cursor);
+        }
+        if ex.memory_bytes() > cfg.max_bytes {
+            ex.stop = Some(Stop::Memory);
+            break;
+        }
+    }
+    if !counting {
+        ex.max_tokens = 1;
+    }
+    ex.seconds = start.elapsed().as_secs_f64();
+    ex
+}

@@ -1,0 +1,479 @@
+//! A mission net as the checker sees it: the P/T skeleton of the coloured
+//! net, with steps named in mission terms.
+//!
+//! Abstractions, each an over-approximation of what can happen (so a proof
+//! holds however the sensors behave and however long actions take):
+//! * a transition guarded by a condition may fire whenever its inputs are
+//!   marked, whatever the sensors say;
+//! * colours are dropped, except the iteration counters of `RepeatFor`
+//!   loops, which the colour guards test: each such loop gets counter places
+//!   `c0..cn` (one marked), its entry resets the counter, its loop-back moves
+//!   it up and its two guarded branches read it, so the checker counts
+//!   rounds exactly as the token game does and its counterexamples replay;
+//! * timed transitions (`PauseFor`) are untimed;
+//! * except: a transition whose guard can never hold (by interval reasoning
+//!   over the profile's property ranges, see [`crate::conditions`]) is left
+//!   out, since no sensor value can let it fire.
+
+use std::collections::HashMap;
+
+use eamos_lang::hir::DroneId;
+use eamos_lang::Span;
+use eamos_petri::net::{
+    ActionRef, ArcKind, ColourOp, GuardKind, Net, NodeId, PlaceKind, TransitionKind,
+};
+use eamos_profile::{ProfileTable, ValueType};
+use petgraph::visit::EdgeRef;
+
+use crate::check::{ActionInfo, Subject};
+use crate::conditions::{self, Domain, Possibility};
+use crate::ptnet::{PlaceInfo, PtNet, RawTransition, StepInfo};
+use crate::report::{Finding, FindingKind, InputKind, Label};
+
+fn fmt_num(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{}", v as i64)
+    } else {
+        format!("{v}")
+    }
+}
+
+pub(crate) fn action_text(net: &Net, a: &ActionRef) -> String {
+    let drone = net
+        .drones
+        .get(a.drone.0 as usize)
+        .map_or("?", String::as_str);
+    let args: Vec<String> = a.args.iter().map(|&v| fmt_num(v)).collect();
+    format!("{drone}.{}({})", a.name, args.join(", "))
+}
+
+/// The text of a span, if it lies in the source.
+fn snippet(src: Option<&str>, span: Span) -> Option<&str> {
+    src?.get(span.start as usize..span.end as usize)
+}
+
+/// The identifier a span starts with (`If`, `RepeatWhile`, ...).
+fn structure(src: Option<&str>, span: Span) -> Option<&str> {
+    let s = src?.get(span.start as usize..)?;
+    let end = s
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(s.len());
+    (end > 0).then(|| &s[..end])
+}
+
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}
+
+fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> StepInfo {
+    let span = Some(t.span).filter(|s| !(s.is_empty() && s.start == 0));
+    let what = structure(src, t.span).unwrap_or("");
+    let here = snippet(src, t.span).map(one_line);
+    let condition = t.guard.as_ref().and_then(|g| g.condition());
+    let guard = condition.map(|(c, negated)| (c.span(), !negated));
+    let cond_text = condition.and_then(|(c, _)| snippet(src, c.span()).map(one_line));
+    let label_suffix = if t.label.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", t.label)
+    };
+    let (kind, text, internal) = match &t.kind {
+        TransitionKind::Init => ("Init", "the mission starts".to_string(), false),
+        TransitionKind::Finish => ("Finish", "the mission ends".to_string(), false),
+        TransitionKind::ActionStart(a) => (
+            "ActionStart",
+            format!("{} starts", action_text(net, a)),
+            false,
+        ),
+        TransitionKind::ActionEnd(a) => {
+            ("ActionEnd", format!("{} ends", action_text(net, a)), false)
+        }
+        TransitionKind::ActionCancel(a) => (
+            "ActionCancel",
+            format!("{} is cancelled", action_text(net, a)),
+            false,
+        ),
+        TransitionKind::Branch => {
+            let text = match (&cond_text, guard) {
+                (Some(c), Some((_, held))) => format!(
+                    "{}: `{c}` {}{label_suffix}",
+                    if what.is_empty() { "condition" } else { what },
+                    if held { "holds" } else { "does not hold" }
+                ),
+                _ if !t.label.is_empty() => t.label.clone(),
+                _ => format!(
+                    "{}: takes a branch",
+                    if what.is_empty() { "branch" } else { what }
+                ),
+            };
+            ("Branch", text, false)
+        }
+        TransitionKind::LoopBack => (
+            "LoopBack",
+            format!(
+                "{}: goes round again",
+                if what.is_empty() { "loop" } else { what }
+            ),
+            false,
+        ),
+        TransitionKind::Pause => (
+            "Pause",
+            format!(
+                "{} is over",
+                here.clone().unwrap_or_else(|| "the pause".into())
+            ),
+            false,
+        ),
+        TransitionKind::Signal => (
+            "Signal",
+            here.clone().unwrap_or_else(|| t.label.clone()),
+            false,
+        ),
+        TransitionKind::Await => (
+            "Await",
+            format!("{} passes", here.clone().unwrap_or_else(|| t.label.clone())),
+            false,
+        ),
+        TransitionKind::Interrupt => {
+            let text = match (&cond_text, guard) {
+                (Some(c), Some((_, held))) => format!(
+                    "{}: `{c}` {}: the body is interrupted",
+                    if what.is_empty() { "Do" } else { what },
+                    if held { "holds" } else { "does not hold" }
+                ),
+                _ => format!(
+                    "{}: the body is interrupted",
+                    if what.is_empty() { "Do" } else { what }
+                ),
+            };
+            ("Interrupt", text, false)
+        }
+        TransitionKind::Fork => ("Fork", format!("fork{label_suffix}"), true),
+        TransitionKind::Join => ("Join", format!("join{label_suffix}"), true),
+        TransitionKind::Merge => ("Merge", format!("merge{label_suffix}"), true),
+        TransitionKind::Skip => ("Skip", format!("skip{label_suffix}"), true),
+        TransitionKind::Silent => ("Silent", format!("step{label_suffix}"), true),
+    };
+    // A guarded plumbing step is a choice a person must see.
+    let internal = internal && guard.is_none();
+    StepInfo {
+        id: t.id.clone(),
+        label: t.label.clone(),
+        kind: kind.to_string(),
+        text,
+        internal,
+        span,
+        guard,
+    }
+}
+
+/// Builds what the checker needs from a mission net.
+pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> Subject {
+    let domain = |d: DroneId, name: &str| -> Option<Domain> {
+        let profile = profiles.get(net.profiles.get(d.0 as usize)?)?;
+        let sig = profile.properties.get(name)?;
+        match sig.ty {
+            ValueType::Bool => Some(Domain { lo: 0.0, hi: 1.0 }),
+            ValueType::Number => sig.range.map(|(lo, hi)| Domain { lo, hi }),
+        }
+    };
+
+    // Conditions first: transitions whose guard can never hold are left out.
+    let mut cond_findings: Vec<Finding> = Vec::new();
+    let mut verdicts: HashMap<(u32, u32), Possibility> = HashMap::new();
+    let mut removed = vec![false; net.graph.node_count()];
+    for (n, t) in net.transitions() {
+        let Some((cond, negated)) = t.guard.as_ref().and_then(|g| g.condition()) else {
+            continue;
+        };
+        let sp = cond.span();
+        let key = (sp.start, sp.end);
+        let p = *verdicts.entry(key).or_insert_with(|| {
+            let p = conditions::possibility(cond, &domain);
+            if p != Possibility::Either {
+                cond_findings.push(condition_finding(net, cond, p, src, &domain));
+            }
+            p
+        });
+        let never = matches!(
+            (p, negated),
+            (Possibility::NeverHolds, false) | (Possibility::AlwaysHolds, true)
+        );
+        removed[n.index()] = never;
+    }
+    let checked = verdicts.len();
+
+    let mut place_index = vec![u32::MAX; net.graph.node_count()];
+    let mut places = Vec::new();
+    let mut initial = Vec::new();
+    let mut running = HashMap::new();
+    let mut running_by_drone: HashMap<u16, Vec<(u32, String)>> = HashMap::new();
+    for (n, p) in net.places() {
+        let i = places.len() as u32;
+        place_index[n.index()] = i;
+        let event = match &p.kind {
+            PlaceKind::Event(e) => Some(e.clone()),
+            _ => None,
+        };
+        places.push(PlaceInfo {
+            id: p.id.clone(),
+            label: p.label.clone(),
+            span: p.span,
+            event,
+            is_final: n == net.final_place,
+            auxiliary: matches!(
+                p.kind,
+                PlaceKind::Event(_) | PlaceKind::EventPending(_) | PlaceKind::Region { .. }
+            ),
+            synthetic: false,
+        });
+        initial.push(net.initial_marking.iter().filter(|&&m| m == n).count() as u32);
+        if let PlaceKind::Running(a) = &p.kind {
+            let span = p.span.unwrap_or_default();
+            running.insert(
+                i,
+                ActionInfo {
+                    drone: net
+                        .drones
+                        .get(a.drone.0 as usize)
+                        .cloned()
+                        .unwrap_or_default(),
+                    text: action_text(net, a),
+                    span,
+                },
+            );
+            running_by_drone
+                .entry(a.drone.0)
+                .or_default()
+                .push((i, a.name.clone()));
+        }
+    }
+    // RepeatFor loops: the head place of each, with its count.
+    let mut counted: HashMap<NodeId, (u32, Vec<u32>)> = HashMap::new();
+    for (n, t) in net.transitions() {
+        let count = match t.guard.as_ref().map(|g| &g.kind) {
+            Some(GuardKind::IterationBelow(c)) | Some(GuardKind::IterationAtLeast(c)) => *c,
+            _ => continue,
+        };
+        for head in net.preset(n) {
+            counted.entry(head).or_insert_with(|| {
+                let first = places.len() as u32;
+                let label = net
+                    .place(head)
+                    .map_or("loop", |p| p.label.as_str())
+                    .to_string();
+                for k in 0..=count {
+                    places.push(PlaceInfo {
+                        id: format!("{}#{k}", net.id(head)),
+                        label: format!("{label}: {k} round(s) done"),
+                        span: None,
+                        event: None,
+                        is_final: false,
+                        auxiliary: true,
+                        synthetic: true,
+                    });
+                    initial.push(u32::from(k == 0));
+                }
+                (count, (first..=first + count).collect())
+            });
+        }
+    }
+    let mut steps = Vec::new();
+    let mut raw = Vec::new();
+    let mut starts = Vec::new();
+    let mut loops = Vec::new();
+    for (n, t) in net.transitions() {
+        if removed[n.index()] {
+            continue;
+        }
+        let info = step_info(net, t, src);
+        let mut r = RawTransition::default();
+        // Each way a transition touches a loop counter multiplies it into
+        // one copy per counter value.
+        let mut variants: Vec<Vec<RawTransition>> = Vec::new();
+        for e in net.graph.edges_directed(n, petgraph::Direction::Incoming) {
+            let p = place_index[e.source().index()];
+            match e.weight().kind {
+                ArcKind::Read => r.read.push((p, e.weight().weight)),
+                _ => r.pre.push((p, e.weight().weight)),
+            }
+            if let (Some((count, c)), Some(g)) = (counted.get(&e.source()), &t.guard) {
+                let ks: Vec<u32> = match g.kind {
+                    GuardKind::IterationBelow(_) => (0..*count).collect(),
+                    GuardKind::IterationAtLeast(_) => vec![*count],
+                    GuardKind::Cond { .. } => Vec::new(),
+                };
+                if !matches!(g.kind, GuardKind::Cond { .. }) {
+                    variants.push(
+                        ks.into_iter()
+                            .map(|k| RawTransition {
+                                read: vec![(c[k as usize], 1)],
+                                ..RawTransition::default()
+                            })
+                            .collect(),
+                    );
+                }
+            }
+        }
+        for e in net.graph.edges_directed(n, petgraph::Direction::Outgoing) {
+            r.post
+                .push((place_index[e.target().index()], e.weight().weight));
+            if let Some((count, c)) = counted.get(&e.target()) {
+                match e.weight().colour {
+                    ColourOp::Enter => variants.push(
+                        (0..=*count)
+                            .map(|k| RawTransition {
+                                pre: vec![(c[k as usize], 1)],
+                                post: vec![(c[0], 1)],
+                                ..RawTransition::default()
+                            })
+                            .collect(),
+                    ),
+                    ColourOp::Next => variants.push(
+                        (0..*count)
+                            .map(|k| RawTransition {
+                                pre: vec![(c[k as usize], 1)],
+                                post: vec![(c[k as usize + 1], 1)],
+                                ..RawTransition::default()
+                            })
+                            .collect(),
+                    ),
+                    _ => {}
+                }
+            }
+        }
+        let mut copies = vec![r];
+        for v in variants {
+            copies = copies
+                .iter()
+                .flat_map(|base| {
+                    v.iter().map(move |x| {
+                        let mut y = base.clone();
+                        y.pre.extend(x.pre.iter().copied());
+                        y.read.extend(x.read.iter().copied());
+                        y.post.extend(x.post.iter().copied());
+                        y
+                    })
+                })
+                .collect();
+        }
+        for r in copies {
+            let ti = steps.len() as u32;
+            match &t.kind {
+                TransitionKind::ActionStart(a) => starts.push((
+                    ti,
+                    ActionInfo {
+                        drone: net
+                            .drones
+                            .get(a.drone.0 as usize)
+                            .cloned()
+                            .unwrap_or_default(),
+                        text: action_text(net, a),
+                        span: t.span,
+                    },
+                )),
+                // Counted loops end by themselves: only the others may
+                // repeat for ever.
+                TransitionKind::LoopBack
+                    if !net.postset(n).any(|(p, _)| counted.contains_key(&p)) =>
+                {
+                    loops.push(ti)
+                }
+                _ => {}
+            }
+            steps.push(info.clone());
+            raw.push(r);
+        }
+    }
+    // Running places of an action take the action's span when they have none.
+    for (t, a) in &starts {
+        for &(p, _) in &raw[*t as usize].post {
+            if let Some(info) = running.get_mut(&p) {
+                if info.span == Span::default() {
+                    info.span = a.span;
+                }
+            }
+        }
+    }
+    let mut exclusive = Vec::new();
+    for (d, list) in &running_by_drone {
+        let Some(profile) = net
+            .profiles
+            .get(*d as usize)
+            .and_then(|name| profiles.get(name))
+        else {
+            continue;
+        };
+        for (i, (p, a)) in list.iter().enumerate() {
+            for (q, b) in &list[i + 1..] {
+                if profile.excludes(a, b) {
+                    exclusive.push((*p.min(q), *p.max(q)));
+                }
+            }
+        }
+    }
+    exclusive.sort_unstable();
+    let final_place = Some(place_index[net.final_place.index()]);
+    Subject {
+        pt: PtNet::new(places, steps, raw, initial, final_place),
+        input: InputKind::Mission,
+        name: net.name.clone(),
+        running,
+        exclusive,
+        starts,
+        conditions: Some((cond_findings, checked)),
+        loops,
+    }
+}
+
+fn condition_finding(
+    net: &Net,
+    cond: &eamos_lang::hir::Expr,
+    p: Possibility,
+    src: Option<&str>,
+    domain: &dyn Fn(DroneId, &str) -> Option<Domain>,
+) -> Finding {
+    let text = snippet(src, cond.span())
+        .map(one_line)
+        .unwrap_or_else(|| "the condition".into());
+    let ranges: Vec<String> = conditions::properties_read(cond)
+        .into_iter()
+        .map(|(d, name)| {
+            let drone = net.drones.get(d.0 as usize).map_or("?", String::as_str);
+            match domain(d, &name) {
+                Some(r) => format!(
+                    "{drone}.{name}() is between {} and {}",
+                    fmt_num(r.lo),
+                    fmt_num(r.hi)
+                ),
+                None => format!("{drone}.{name}() can take any value"),
+            }
+        })
+        .collect();
+    let (kind, message, label) = match p {
+        Possibility::NeverHolds => (
+            FindingKind::ConditionNeverHolds,
+            format!("`{text}` can never hold"),
+            "never holds",
+        ),
+        _ => (
+            FindingKind::ConditionAlwaysHolds,
+            format!("`{text}` always holds"),
+            "always holds",
+        ),
+    };
+    let mut notes = Vec::new();
+    if !ranges.is_empty() {
+        notes.push(ranges.join("; "));
+    }
+    Finding {
+        kind,
+        message,
+        labels: vec![Label {
+            span: cond.span(),
+            text: label.into(),
+        }],
+        notes,
+        trace: None,
+    }
+}

@@ -1,0 +1,304 @@
+//! The compact form of a net that exploration works on.
+//!
+//! Exploration fires millions of transitions, so it cannot chase petgraph
+//! edges: places and transitions get dense indices, every arc list is a slice
+//! of one flat array, and the lists a stubborn-set closure needs (who
+//! consumes, reads or produces a place; which transitions conflict with one)
+//! are computed once here.
+//!
+//! Besides the transitions of the net the compact form holds *monitors*:
+//! pseudo-transitions that only read places and are never fired. A monitor is
+//! enabled exactly in the markings a property wants to find (two running
+//! places of one drone both marked; a transition able to fire into a marked
+//! place), so looking for such a marking becomes asking whether a transition
+//! can ever be enabled, which stubborn sets with the cycle proviso preserve
+//! (see [`crate::explore`]).
+
+use eamos_lang::Span;
+
+/// A list of lists stored flat: `items[offsets[i]..offsets[i + 1]]` is list `i`.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Csr<T> {
+    offsets: Vec<u32>,
+    items: Vec<T>,
+}
+
+impl<T: Clone> Csr<T> {
+    pub(crate) fn from_lists(lists: &[Vec<T>]) -> Self {
+        let mut offsets = Vec::with_capacity(lists.len() + 1);
+        let mut items = Vec::new();
+        offsets.push(0);
+        for l in lists {
+            items.extend(l.iter().cloned());
+            offsets.push(items.len() as u32);
+        }
+        Csr { offsets, items }
+    }
+}
+
+impl<T> Csr<T> {
+    #[inline]
+    pub(crate) fn get(&self, i: usize) -> &[T] {
+        &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+}
+
+/// What a transition is, in the words a person reads in a counterexample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepInfo {
+    /// Stable id of the transition in the net (`t42`) or the PNML file.
+    pub id: String,
+    /// Its label (or PNML name).
+    pub label: String,
+    /// The kind of step, in the net's terms (`ActionStart`, `Branch`, ...).
+    pub kind: String,
+    /// What a person reads: `D1.FlyByX(0.2) starts`.
+    pub text: String,
+    /// Forks, joins and other plumbing that only matters to tools.
+    pub internal: bool,
+    pub span: Option<Span>,
+    /// For a guarded transition: the condition's span and whether the step
+    /// means that the condition held (`true`) or did not (`false`).
+    pub guard: Option<(Span, bool)>,
+}
+
+/// What a place is, for naming it in findings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlaceInfo {
+    pub id: String,
+    pub label: String,
+    pub span: Option<Span>,
+    /// The name of the event, for event places.
+    pub event: Option<String>,
+    /// The place that marks the end of the mission.
+    pub is_final: bool,
+    /// Bookkeeping (event places and the like): a token here is not a
+    /// branch of the mission waiting somewhere.
+    pub auxiliary: bool,
+    /// Added by the checker (loop counters), not a place of the net: left
+    /// out of the markings that counterexamples report.
+    pub synthetic: bool,
+}
+
+/// A monitor: a marking shape a property looks for.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum MonitorKind {
+    /// Two running places of one drone, whose actions exclude each other.
+    Conflict { a: u32, b: u32 },
+    /// Transition `t` could fire while `place`, which it produces into, is
+    /// already marked: two tokens.
+    Unsafe { t: u32, place: u32 },
+}
+
+/// The net as exploration sees it. Transitions `0..n_real` are the net's;
+/// `n_real..` are monitors (read arcs only, never fired).
+#[derive(Debug, Clone)]
+pub(crate) struct PtNet {
+    pub places: Vec<PlaceInfo>,
+    pub steps: Vec<StepInfo>,
+    pub n_real: usize,
+    pub monitors: Vec<MonitorKind>,
+    /// `(place, weight)` consumed, read and produced by each transition.
+    pub pre: Csr<(u32, u32)>,
+    pub read: Csr<(u32, u32)>,
+    pub post: Csr<(u32, u32)>,
+    /// Per place: transitions consuming it, reading it, raising its count.
+    pub consumers: Csr<u32>,
+    pub readers: Csr<u32>,
+    pub producers: Csr<u32>,
+    /// Per transition: what a stubborn set must also hold when it holds this
+    /// transition enabled (everything that could disable it or that it could
+    /// disable).
+    pub conflicts: Csr<u32>,
+    /// Transitions with no input at all: always enabled.
+    pub sources: Vec<u32>,
+    pub initial: Vec<u32>,
+    pub final_place: Option<u32>,
+}
+
+/// The arcs of one transition, to build a [`PtNet`] from.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct RawTransition {
+    pub pre: Vec<(u32, u32)>,
+    pub read: Vec<(u32, u32)>,
+    pub post: Vec<(u32, u32)>,
+}
+
+fn merge(arcs: &mut Vec<(u32, u32)>) {
+    arcs.sort_unstable();
+    let mut out: Vec<(u32, u32)> = Vec::with_capacity(arcs.len());
+    for &(p, w) in arcs.iter() {
+        match out.last_mut() {
+            Some(last) if last.0 == p => last.1 += w,
+            _ => out.push((p, w)),
+        }
+    }
+    *arcs = out;
+}
+
+impl PtNet {
+    pub(crate) fn new(
+        places: Vec<PlaceInfo>,
+        steps: Vec<StepInfo>,
+        mut transitions: Vec<RawTransition>,
+        initial: Vec<u32>,
+        final_place: Option<u32>,
+    ) -> Self {
+        for t in &mut transitions {
+            merge(&mut t.pre);
+            merge(&mut t.read);
+            merge(&mut t.post);
+        }
+        let n_real = transitions.len();
+        let mut net = PtNet {
+            places,
+            steps,
+            n_real,
+            monitors: Vec::new(),
+            pre: Csr::default(),
+            read: Csr::default(),
+            post: Csr::default(),
+            consumers: Csr::default(),
+            readers: Csr::default(),
+            producers: Csr::default(),
+            conflicts: Csr::default(),
+            sources: Vec::new(),
+            initial,
+            final_place,
+        };
+        net.rebuild(transitions, Vec::new());
+        net
+    }
+
+    /// The raw arcs of the real transitions (to rebuild with monitors).
+    fn raw(&self) -> Vec<RawTransition> {
+        (0..self.n_real)
+            .map(|t| RawTransition {
+                pre: self.pre.get(t).to_vec(),
+                read: self.read.get(t).to_vec(),
+                post: self.post.get(t).to_vec(),
+            })
+            .collect()
+    }
+
+    /// Adds monitors (replacing any there were).
+    pub(crate) fn with_monitors(mut self, monitors: Vec<MonitorKind>) -> Self {
+        let raw = self.raw();
+        self.rebuild(raw, monitors);
+        self
+    }
+
+    fn rebuild(&mut self, mut transitions: Vec<RawTransition>, monitors: Vec<MonitorKind>) {
+        for m in &monitors {
+            let mut read = match *m {
+                MonitorKind::Conflict { a, b } => vec![(a, 1), (b, 1)],
+                MonitorKind::Unsafe { t, place } => {
+                    let t = &transitions[t as usize];
+                    let mut r: Vec<(u32, u32)> = t.pre.clone();
+                    r.extend(t.read.iter().copied());
+                    r.push((place, 1));
+                    r
+                }
+            };
+            // A monitor needs each place's count at least as high as the
+            // transition it watches does; reading is enough to say so.
+            read.sort_unstable();
+            let mut merged: Vec<(u32, u32)> = Vec::new();
+            for (p, w) in read {
+                match merged.last_mut() {
+                    Some(last) if last.0 == p => last.1 = last.1.max(w),
+                    _ => merged.push((p, w)),
+                }
+            }
+            transitions.push(RawTransition {
+                pre: Vec::new(),
+                read: merged,
+                post: Vec::new(),
+            });
+        }
+        self.monitors = monitors;
+        let np = self.places.len();
+        let nt = transitions.len();
+        let mut consumers = vec![Vec::new(); np];
+        let mut readers = vec![Vec::new(); np];
+        let mut producers = vec![Vec::new(); np];
+        let mut sources = Vec::new();
+        for (ti, t) in transitions.iter().enumerate() {
+            let ti = ti as u32;
+            for &(p, _) in &t.pre {
+                consumers[p as usize].push(ti);
+            }
+            for &(p, _) in &t.read {
+                readers[p as usize].push(ti);
+            }
+            for &(p, w) in &t.post {
+                let consumed = t.pre.iter().find(|&&(q, _)| q == p).map_or(0, |&(_, v)| v);
+                if w > consumed {
+                    producers[p as usize].push(ti);
+                }
+            }
+            if t.pre.is_empty() && t.read.is_empty() && (ti as usize) < self.n_real {
+                sources.push(ti);
+            }
+        }
+        let mut conflicts = vec![Vec::new(); nt];
+        for (ti, t) in transitions.iter().enumerate().take(self.n_real) {
+            let c = &mut conflicts[ti];
+            for &(p, _) in t.pre.iter().chain(t.read.iter()) {
+                c.extend(consumers[p as usize].iter().copied());
+            }
+            for &(p, _) in &t.pre {
+                c.extend(readers[p as usize].iter().copied());
+            }
+            c.sort_unstable();
+            c.dedup();
+            c.retain(|&u| u as usize != ti);
+        }
+        self.pre = Csr::from_lists(
+            &transitions
+                .iter()
+                .map(|t| t.pre.clone())
+                .collect::<Vec<_>>(),
+        );
+        self.read = Csr::from_lists(
+            &transitions
+                .iter()
+                .map(|t| t.read.clone())
+                .collect::<Vec<_>>(),
+        );
+        self.post = Csr::from_lists(
+            &transitions
+                .iter()
+                .map(|t| t.post.clone())
+                .collect::<Vec<_>>(),
+        );
+        self.consumers = Csr::from_lists(&consumers);
+        self.readers = Csr::from_lists(&readers);
+        self.producers = Csr::from_lists(&producers);
+        self.conflicts = Csr::from_lists(&conflicts);
+        self.sources = sources;
+    }
+
+    pub(crate) fn n_places(&self) -> usize {
+        self.places.len()
+    }
+
+    /// Real transitions and monitors.
+    pub(crate) fn n_all(&self) -> usize {
+        self.n_real + self.monitors.len()
+    }
+
+    pub(crate) fn is_monitor(&self, t: u32) -> bool {
+        t as usize >= self.n_real
+    }
+
+    /// Whether the initial marking and every arc fit the one-bit encoding.
+    pub(crate) fn fits_bits(&self) -> bool {
+        self.initial.iter().all(|&c| c <= 1)
+            && (0..self.n_all()).all(|t| {
+                self.pre.get(t).iter().all(|&(_, w)| w == 1)
+                    && self.read.get(t).iter().all(|&(_, w)| w == 1)
+                    && self.post.get(t).iter().all(|&(_, w)| w == 1)
+            })
+    }
+}
