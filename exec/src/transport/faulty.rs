@@ -1,0 +1,226 @@
+//! A link that misbehaves on purpose: it loses, duplicates and delays
+//! (hence reorders) a share of the frames it is asked to send, drawn from a
+//! seeded random generator so that a failing run can be replayed.
+//!
+//! Telemetry passes unharmed: it is a latest-value stream that the next
+//! sample repairs, while losing a bridge token would lose the mission.
+
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use async_trait::async_trait;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use super::{Frame, Link, PeerId, TelemetryFrame, TransportError};
+
+/// How badly the link behaves; each a probability per frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Faults {
+    pub drop: f64,
+    pub duplicate: f64,
+    /// Delay the frame by up to `max_delay`, letting later ones overtake it.
+    pub reorder: f64,
+    pub max_delay: Duration,
+    pub seed: u64,
+}
+
+impl Default for Faults {
+    fn default() -> Self {
+        Faults {
+            drop: 0.0,
+            duplicate: 0.0,
+            reorder: 0.0,
+            max_delay: Duration::from_millis(30),
+            seed: 0,
+        }
+    }
+}
+
+/// What the faulty link did, for tests to check that faults really happened.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FaultCounts {
+    pub sent: u64,
+    pub dropped: u64,
+    pub duplicated: u64,
+    pub delayed: u64,
+}
+
+pub struct FaultyLink {
+    inner: Arc<dyn Link>,
+    faults: Faults,
+    rng: Mutex<ChaCha8Rng>,
+    counts: Arc<Mutex<FaultCounts>>,
+}
+
+impl FaultyLink {
+    pub fn new(inner: Arc<dyn Link>, faults: Faults) -> Self {
+        FaultyLink {
+            inner,
+            faults,
+            rng: Mutex::new(ChaCha8Rng::seed_from_u64(faults.seed)),
+            counts: Arc::default(),
+        }
+    }
+
+    /// A handle on the counts that stays valid after the link moves.
+    pub fn counts(&self) -> Arc<Mutex<FaultCounts>> {
+        self.counts.clone()
+    }
+}
+
+enum Fate {
+    Drop,
+    Send { copies: u8, delay: Option<Duration> },
+}
+
+impl FaultyLink {
+    fn fate(&self) -> Fate {
+        let mut rng = self.rng.lock().expect("rng lock");
+        let mut counts = self.counts.lock().expect("counts lock");
+        counts.sent += 1;
+        if rng.random_bool(self.faults.drop.clamp(0.0, 1.0)) {
+            counts.dropped += 1;
+            return Fate::Drop;
+        }
+        let copies = if rng.random_bool(self.faults.duplicate.clamp(0.0, 1.0)) {
+            counts.duplicated += 1;
+            2
+        } else {
+            1
+        };
+        let delay = if rng.random_bool(self.faults.reorder.clamp(0.0, 1.0)) {
+            counts.delayed += 1;
+            let max = self.faults.max_delay.as_micros().max(1) as u64;
+            Some(Duration::from_micros(rng.random_range(0..max)))
+        } else {
+            None
+        };
+        Fate::Send { copies, delay }
+    }
+}
+
+#[async_trait]
+impl Link for FaultyLink {
+    fn me(&self) -> &str {
+        self.inner.me()
+    }
+
+    async fn send(&self, to: &str, frame: &Frame) -> Result<(), TransportError> {
+        match self.fate() {
+            Fate::Drop => Ok(()),
+            Fate::Send {
+                copies,
+                delay: None,
+            } => {
+                for _ in 0..copies {
+                    self.inner.send(to, frame).await?;
+                }
+                Ok(())
+            }
+            Fate::Send {
+                copies,
+                delay: Some(d),
+            } => {
+                let inner = self.inner.clone();
+                let to = to.to_string();
+                let frame = frame.clone();
+                tokio::spawn(async move {
+                    tokio::time::sleep(d).await;
+                    for _ in 0..copies {
+                        let _ = inner.send(&to, &frame).await;
+                    }
+                });
+                Ok(())
+            }
+        }
+    }
+
+    async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
+        self.inner.publish_telemetry(sample).await
+    }
+
+    async fn wait_for_peers(
+        &self,
+        peers: &[PeerId],
+        timeout: Duration,
+    ) -> Result<(), TransportError> {
+        self.inner.wait_for_peers(peers, timeout).await
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::transport::inproc::InProcessHub;
+    use crate::transport::BridgeMessage;
+
+    fn token(seq: u64) -> Frame {
+        Frame::Token(BridgeMessage {
+            mission: "M".into(),
+            from: "D1".into(),
+            bridge: "b".into(),
+            colour: vec![],
+            seq,
+        })
+    }
+
+    async fn received_after(faults: Faults, n: u64) -> (Vec<u64>, FaultCounts) {
+        let hub = InProcessHub::new();
+        let a = hub.connect("D1", &[]);
+        let mut b = hub.connect("D2", &[]);
+        let link = FaultyLink::new(a.link, faults);
+        for i in 0..n {
+            link.send("D2", &token(i)).await.unwrap();
+        }
+        tokio::time::sleep(faults.max_delay * 2).await;
+        let mut seqs = Vec::new();
+        while let Ok(Frame::Token(m)) = b.frames.try_recv() {
+            seqs.push(m.seq);
+        }
+        let counts = *link.counts().lock().unwrap();
+        (seqs, counts)
+    }
+
+    #[tokio::test]
+    async fn a_faulty_link_loses_and_duplicates_about_the_share_it_is_told() {
+        let faults = Faults {
+            drop: 0.3,
+            duplicate: 0.2,
+            seed: 7,
+            ..Faults::default()
+        };
+        let (seqs, counts) = received_after(faults, 1000).await;
+        assert!((200..400).contains(&counts.dropped), "{counts:?}");
+        assert!((100..250).contains(&counts.duplicated), "{counts:?}");
+        assert_eq!(seqs.len() as u64, 1000 - counts.dropped + counts.duplicated);
+    }
+
+    #[tokio::test]
+    async fn the_same_seed_makes_the_same_faults() {
+        let faults = Faults {
+            drop: 0.5,
+            seed: 42,
+            ..Faults::default()
+        };
+        let (a, _) = received_after(faults, 200).await;
+        let (b, _) = received_after(faults, 200).await;
+        assert_eq!(a, b);
+    }
+
+    #[tokio::test]
+    async fn a_delayed_frame_can_be_overtaken() {
+        let faults = Faults {
+            reorder: 0.5,
+            max_delay: Duration::from_millis(20),
+            seed: 3,
+            ..Faults::default()
+        };
+        let (seqs, counts) = received_after(faults, 100).await;
+        assert_eq!(seqs.len(), 100);
+        assert!(counts.delayed > 0);
+        let mut sorted = seqs.clone();
+        sorted.sort();
+        assert_ne!(seqs, sorted, "some frame should arrive out of order");
+    }
+}

@@ -1,0 +1,175 @@
+//! Bridge transports: how tokens cross from one drone's slice to another's.
+//!
+//! Two layers. A [`Link`] moves [`Frame`]s between named peers with no
+//! promise at all: a frame may be lost, duplicated or overtaken (zenoh's own
+//! reliability does not survive a reconnect, a radio link drops packets).
+//! [`reliable::Bridges`] builds exactly-once delivery of bridge tokens on top
+//! of any link: the sender keeps every token until it is acknowledged and
+//! retransmits it with backoff; the receiver acknowledges every copy and
+//! hands a (bridge, colour) to the executor only the first time.
+//!
+//! Links: [`inproc`] (tokio channels, the whole fleet in one process),
+//! [`zenoh`] (peer to peer over the network) and [`faulty`] (a wrapper that
+//! loses, duplicates and reorders frames on purpose, for tests).
+
+use std::time::Duration;
+
+use async_trait::async_trait;
+use serde::{Deserialize, Serialize};
+use tokio::sync::mpsc;
+
+use eamos_petri::net::Colour;
+
+pub mod faulty;
+pub mod inproc;
+pub mod reliable;
+pub mod zenoh;
+
+/// A peer of the mission: a drone name, or [`GCS`].
+pub type PeerId = String;
+
+/// The peer name of the ground station.
+pub const GCS: &str = "GCS";
+
+/// One token crossing a bridge.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BridgeMessage {
+    /// The mission identity: a token of another mission (or of another
+    /// version of this one) is never accepted.
+    pub mission: String,
+    pub from: PeerId,
+    /// The bridge, as the slicer names it.
+    pub bridge: String,
+    /// The colour of the token (loop iteration counters, outermost first).
+    pub colour: Colour,
+    /// The sender's sequence number of this token, kept across
+    /// retransmissions so that the logs can pair copies.
+    pub seq: u64,
+}
+
+/// The receiver has the token of (bridge, colour): stop retransmitting it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Ack {
+    pub mission: String,
+    /// Who acknowledges (the token's receiver).
+    pub from: PeerId,
+    pub bridge: String,
+    pub colour: Colour,
+    pub seq: u64,
+}
+
+/// What a link carries between two peers.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Frame {
+    Token(BridgeMessage),
+    Ack(Ack),
+}
+
+impl Frame {
+    pub fn encode(&self) -> Vec<u8> {
+        postcard::to_stdvec(self).expect("frames always serialise")
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<Frame, TransportError> {
+        postcard::from_bytes(bytes).map_err(|e| TransportError::Decode(e.to_string()))
+    }
+}
+
+/// The latest state of one drone, published for the conditions of other
+/// drones that read it. The body is opaque to the transport (the executor
+/// encodes the middle layer's telemetry in it), so that transports never
+/// depend on what a drone reports.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TelemetryFrame {
+    pub mission: String,
+    pub drone: PeerId,
+    /// Increases with every sample of this drone: a late, overtaken sample
+    /// must not replace a newer one.
+    pub seq: u64,
+    pub body: Vec<u8>,
+}
+
+impl TelemetryFrame {
+    pub fn encode(&self) -> Vec<u8> {
+        postcard::to_stdvec(self).expect("telemetry always serialises")
+    }
+
+    pub fn decode(bytes: &[u8]) -> Result<TelemetryFrame, TransportError> {
+        postcard::from_bytes(bytes).map_err(|e| TransportError::Decode(e.to_string()))
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum TransportError {
+    #[error("transport configuration is not valid: {0}")]
+    Config(String),
+    #[error("cannot open the transport: {0}")]
+    Open(String),
+    #[error("cannot send: {0}")]
+    Send(String),
+    #[error("cannot decode a frame: {0}")]
+    Decode(String),
+    #[error("peers {missing:?} did not show up within {waited:?}")]
+    PeersMissing {
+        missing: Vec<PeerId>,
+        waited: Duration,
+    },
+}
+
+/// Moves frames between peers, best effort: no retransmission, no
+/// deduplication, no ordering (that is [`reliable::Bridges`]' job).
+#[async_trait]
+pub trait Link: Send + Sync + 'static {
+    /// The peer this end belongs to.
+    fn me(&self) -> &str;
+
+    /// Sends one frame to one peer. `Ok` means handed to the network, not
+    /// received: a peer that is not up yet simply misses the frame.
+    async fn send(&self, to: &str, frame: &Frame) -> Result<(), TransportError>;
+
+    /// Publishes this drone's telemetry to every peer subscribed to it.
+    async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError>;
+
+    /// Waits until every peer in `peers` is reachable, so that the first
+    /// token of a mission is not sent into the void (retransmission would
+    /// cover it, but only after a backoff).
+    async fn wait_for_peers(
+        &self,
+        peers: &[PeerId],
+        timeout: Duration,
+    ) -> Result<(), TransportError>;
+}
+
+/// One peer's end of a link: the sending half, the frames addressed to it
+/// and the telemetry of the drones it subscribed to.
+pub struct Endpoint {
+    pub link: std::sync::Arc<dyn Link>,
+    pub frames: mpsc::UnboundedReceiver<Frame>,
+    pub telemetry: mpsc::UnboundedReceiver<TelemetryFrame>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_survive_their_wire_encoding() {
+        let f = Frame::Token(BridgeMessage {
+            mission: "M-1".into(),
+            from: "D1".into(),
+            bridge: "b3".into(),
+            colour: vec![2, 0],
+            seq: 7,
+        });
+        assert_eq!(Frame::decode(&f.encode()).unwrap(), f);
+    }
+
+    #[test]
+    fn a_garbled_frame_is_an_error_not_a_panic() {
+        assert!(matches!(
+            Frame::decode(&[0xff, 0xff, 0xff]),
+            Err(TransportError::Decode(_))
+        ));
+        assert!(TelemetryFrame::decode(&[]).is_err());
+    }
+}
