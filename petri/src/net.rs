@@ -65,6 +65,14 @@ pub enum PlaceKind {
     Final,
 }
 
+impl PlaceKind {
+    /// Places that record whether an event has happened. They are the only
+    /// places besides `final` that may stay marked once the mission has ended.
+    pub fn is_event_state(&self) -> bool {
+        matches!(self, PlaceKind::Event(_) | PlaceKind::EventPending(_))
+    }
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Transition {
     /// Stable, unique, XML-safe id (`t42`).
@@ -80,17 +88,83 @@ pub struct Transition {
     pub delay: Option<f64>,
 }
 
-/// A transition guard: the condition, or its negation, must hold.
+/// A transition guard. Most guards ask the world (a condition over drone
+/// state); the guards of `RepeatFor` only look at the token's own colour, so
+/// they are decided inside the net and never cost a message.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Guard {
-    pub cond: Expr,
-    pub negated: bool,
+    pub kind: GuardKind,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum GuardKind {
+    /// The condition (or, if `negated`, its negation) holds now.
+    Cond { cond: Expr, negated: bool },
+    /// The innermost iteration counter of the token is below `n`.
+    IterationBelow(u32),
+    /// The innermost iteration counter of the token is at least `n`.
+    IterationAtLeast(u32),
 }
 
 impl Guard {
-    /// Every drone whose state the guard reads.
+    /// A guard on a condition over drone state.
+    pub fn cond(cond: Expr, negated: bool) -> Self {
+        Guard {
+            kind: GuardKind::Cond { cond, negated },
+        }
+    }
+
+    /// A colour guard: fewer than `n` iterations done.
+    pub fn iteration_below(n: u32) -> Self {
+        Guard {
+            kind: GuardKind::IterationBelow(n),
+        }
+    }
+
+    /// A colour guard: at least `n` iterations done.
+    pub fn iteration_at_least(n: u32) -> Self {
+        Guard {
+            kind: GuardKind::IterationAtLeast(n),
+        }
+    }
+
+    /// The condition and whether the guard is its negation; `None` for a
+    /// colour guard.
+    pub fn condition(&self) -> Option<(&Expr, bool)> {
+        match &self.kind {
+            GuardKind::Cond { cond, negated } => Some((cond, *negated)),
+            _ => None,
+        }
+    }
+
+    /// Every drone whose state the guard reads (none for a colour guard).
     pub fn drones(&self) -> Vec<DroneId> {
-        self.cond.drones()
+        match &self.kind {
+            GuardKind::Cond { cond, .. } => cond.drones(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Whether the guard holds when its condition has the value `cond_value`
+    /// (applies the negation). Colour guards ignore the value: use
+    /// [`Guard::holds_on_colour`] for them.
+    pub fn holds_when(&self, cond_value: bool) -> bool {
+        match &self.kind {
+            GuardKind::Cond { negated, .. } => cond_value != *negated,
+            _ => cond_value,
+        }
+    }
+
+    /// The value of a colour guard on a token colour (iteration counters,
+    /// outermost first); `None` for a condition guard, which only the world
+    /// can answer.
+    pub fn holds_on_colour(&self, colour: &[u32]) -> Option<bool> {
+        let innermost = colour.last().copied().unwrap_or(0);
+        match self.kind {
+            GuardKind::Cond { .. } => None,
+            GuardKind::IterationBelow(n) => Some(innermost < n),
+            GuardKind::IterationAtLeast(n) => Some(innermost >= n),
+        }
     }
 }
 
@@ -125,7 +199,9 @@ pub enum TransitionKind {
     Merge,
     /// Back to the head of a loop (the token's innermost counter goes up).
     LoopBack,
-    /// `PauseFor`: a timed transition.
+    /// A wait on the world: `PauseWhile`/`PauseUntil` and the proceed step of
+    /// `WaitWhile`/`WaitUntil` (guarded, no complement), or `PauseFor` (a
+    /// timed transition with a `delay`).
     Pause,
     Signal,
     Await,
@@ -206,6 +282,14 @@ impl ColourOp {
 }
 
 pub type NodeId = NodeIndex<u32>;
+
+/// A place that the owners of its consumers pull onto several drones.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OwnershipViolation {
+    pub place: NodeId,
+    /// The distinct assigned owners involved, sorted.
+    pub owners: Vec<Owner>,
+}
 
 /// The net of one mission.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -375,12 +459,47 @@ impl Net {
             .map(|e| e.source())
     }
 
+    /// Every arc: source node, target node and the arc.
+    pub fn arcs(&self) -> impl Iterator<Item = (NodeId, NodeId, &Arc)> + '_ {
+        self.graph
+            .edge_references()
+            .map(|e| (e.source(), e.target(), e.weight()))
+    }
+
+    /// Places whose owner and the owners of the transitions that consume or
+    /// read them name more than one drone (or a drone and the ground
+    /// station). Such a place could not live on one drone, so the net could
+    /// not be sliced: every compiled net must return nothing here.
+    pub fn ownership_violations(&self) -> Vec<OwnershipViolation> {
+        let mut out = Vec::new();
+        for (p, place) in self.places() {
+            let mut owners: Vec<Owner> = std::iter::once(place.owner)
+                .chain(self.consumers(p).map(|(t, _)| self.owner(t)))
+                .filter(|o| *o != Owner::Unassigned)
+                .collect();
+            owners.sort();
+            owners.dedup();
+            if owners.len() > 1 {
+                out.push(OwnershipViolation { place: p, owners });
+            }
+        }
+        out
+    }
+
     /// The node with this stable id.
     pub fn find(&self, id: &str) -> Option<NodeId> {
         self.graph.node_indices().find(|&n| match &self.graph[n] {
             Node::Place(p) => p.id == id,
             Node::Transition(t) => t.id == id,
         })
+    }
+
+    /// The stable id of a place or transition.
+    pub fn id(&self, n: NodeId) -> &str {
+        match &self.graph[n] {
+            Node::Place(p) => &p.id,
+            Node::Transition(t) => &t.id,
+        }
     }
 
     pub fn owner(&self, n: NodeId) -> Owner {
@@ -410,6 +529,58 @@ mod tests {
         assert_eq!(ColourOp::Next.apply(&[2, 0]), vec![2, 1]);
         assert_eq!(ColourOp::Leave.apply(&[2, 1]), vec![2]);
         assert_eq!(ColourOp::Plain.apply(&[2, 1]), Vec::<u32>::new());
+    }
+
+    #[test]
+    fn colour_guards_look_at_the_innermost_counter_only() {
+        let below = Guard::iteration_below(2);
+        assert_eq!(below.holds_on_colour(&[5, 1]), Some(true));
+        assert_eq!(below.holds_on_colour(&[0, 2]), Some(false));
+        let at_least = Guard::iteration_at_least(2);
+        assert_eq!(at_least.holds_on_colour(&[0, 2]), Some(true));
+        assert!(below.drones().is_empty());
+    }
+
+    #[test]
+    fn a_condition_guard_applies_its_negation_and_needs_the_world() {
+        let cond = Expr::Bool {
+            value: true,
+            span: Span::default(),
+        };
+        let g = Guard::cond(cond, true);
+        assert!(!g.holds_when(true));
+        assert!(g.holds_when(false));
+        assert_eq!(g.holds_on_colour(&[]), None);
+        assert!(g.condition().is_some_and(|(_, negated)| negated));
+    }
+
+    #[test]
+    fn a_place_consumed_by_two_drones_is_an_ownership_violation() {
+        let mut net = Net::new("M", vec!["D1".into(), "D2".into()], vec![]);
+        let p = net.add_place(Place {
+            id: String::new(),
+            label: "p".into(),
+            kind: PlaceKind::Control,
+            owner: Owner::Unassigned,
+            span: None,
+            depth: 0,
+        });
+        for d in [0, 1] {
+            let t = net.add_transition(Transition {
+                id: String::new(),
+                label: "t".into(),
+                kind: TransitionKind::Silent,
+                owner: Owner::Drone(DroneId(d)),
+                span: Span::default(),
+                guard: None,
+                delay: None,
+            });
+            net.arc(p, t, ColourOp::Keep);
+        }
+        let v = net.ownership_violations();
+        assert_eq!(v.len(), 1);
+        assert_eq!(v[0].place, p);
+        assert_eq!(v[0].owners.len(), 2);
     }
 
     #[test]
