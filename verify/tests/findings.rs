@@ -535,3 +535,50 @@ fn the_text_form_shows_the_line_the_verdicts_and_the_steps() {
     assert!(text.contains("violated"), "{text}");
     assert!(text.contains("states"), "{text}");
 }
+
+const BESIDE_A_LOOP: &str = r#"package Beside
+var D1 Quadcopter
+var D2 Quadcopter
+func PAR_Main() {
+	SEQ_Patrol()
+	D2.Arm()
+}
+func SEQ_Patrol() {
+	D1.FlyByX(1)
+}
+"#;
+
+#[test]
+fn an_action_beside_an_endless_loop_is_not_taken_for_dead() {
+    // The loop's transitions come first, so a stubborn set without the cycle
+    // proviso would go round the loop for ever and never start D2.Arm().
+    let mut b = Builder::new("Beside", &["D1", "D2"], BESIDE_A_LOOP);
+    let p = b.init();
+    let par = b.span("SEQ_Patrol()\n\tD2.Arm()", 0);
+    let fork_place = b.place("fork");
+    let t_fork = b.span("PAR_Main", 0);
+    let head = b.place("head");
+    let other = b.place("other");
+    b.trans(TransitionKind::Silent, t_fork, &[p], &[fork_place]);
+    let body_end = b.place("body end");
+    b.trans(
+        TransitionKind::LoopBack,
+        b.span("SEQ_Patrol()", 0),
+        &[body_end],
+        &[head],
+    );
+    let back = b.span("D1.FlyByX(1)", 0);
+    b.trans(TransitionKind::Silent, back, &[head], &[body_end]);
+    b.trans(TransitionKind::Fork, par, &[fork_place], &[head, other]);
+    let end = b.action(other, 1, "Arm", &[], "D2.Arm()", 0);
+    let _ = end;
+    let r = check(&b);
+    assert_eq!(
+        r.findings_of(FindingKind::DeadAction).count(),
+        0,
+        "{:#?}",
+        r.findings
+    );
+    assert_eq!(r.verdict(Property::DeadActions), Some(&Verdict::Holds));
+    assert!(r.stats.full_expansions > 0);
+}

@@ -121,6 +121,24 @@ impl Builder {
         nth: usize,
     ) -> NodeId {
         let span = self.span(needle, nth);
+        self.action_at(from, drone, name, args, span)
+    }
+
+    /// [`Builder::action`] with the span given.
+    pub fn action_at(
+        &mut self,
+        from: NodeId,
+        drone: u16,
+        name: &str,
+        args: &[f64],
+        span: Span,
+    ) -> NodeId {
+        let needle = self
+            .src
+            .get(span.start as usize..span.end as usize)
+            .unwrap_or(name)
+            .to_string();
+        let needle = needle.as_str();
         self.instance += 1;
         let a = ActionRef {
             drone: DroneId(drone),
@@ -182,6 +200,10 @@ impl Builder {
         nth: usize,
     ) -> NodeId {
         let span = self.span(needle, nth);
+        self.signal_at(from, ev, span)
+    }
+
+    pub fn signal_at(&mut self, from: NodeId, ev: (NodeId, NodeId), span: Span) -> NodeId {
         let after = self.place("after signal");
         self.trans(TransitionKind::Signal, span, &[from, ev.0], &[after, ev.1]);
         after
@@ -196,6 +218,10 @@ impl Builder {
         nth: usize,
     ) -> NodeId {
         let span = self.span(needle, nth);
+        self.await_at(from, ev, span)
+    }
+
+    pub fn await_at(&mut self, from: NodeId, ev: (NodeId, NodeId), span: Span) -> NodeId {
         let after = self.place("after await");
         let t = self.trans(TransitionKind::Await, span, &[from], &[after]);
         self.net.read_arc(ev.1, t);
