@@ -408,17 +408,21 @@ impl Net {
     }
 
     pub fn places(&self) -> impl Iterator<Item = (NodeId, &Place)> + '_ {
-        self.graph.node_indices().filter_map(move |n| match &self.graph[n] {
-            Node::Place(p) => Some((n, p)),
-            Node::Transition(_) => None,
-        })
+        self.graph
+            .node_indices()
+            .filter_map(move |n| match &self.graph[n] {
+                Node::Place(p) => Some((n, p)),
+                Node::Transition(_) => None,
+            })
     }
 
     pub fn transitions(&self) -> impl Iterator<Item = (NodeId, &Transition)> + '_ {
-        self.graph.node_indices().filter_map(move |n| match &self.graph[n] {
-            Node::Transition(t) => Some((n, t)),
-            Node::Place(_) => None,
-        })
+        self.graph
+            .node_indices()
+            .filter_map(move |n| match &self.graph[n] {
+                Node::Transition(t) => Some((n, t)),
+                Node::Place(_) => None,
+            })
     }
 
     /// Places a transition consumes from.
