@@ -8,11 +8,14 @@
 //!   executor calls.
 //! - [`clock`]: mission time, shared by a whole fleet.
 //! - [`log`]: records of the uniform and adapter logs.
+//! - [`sim`]: the built-in simulator ([`SimFleet`], [`SimDrone`]) and its
+//!   multirotor kinematics.
 
 pub mod api;
 pub mod clock;
 pub mod log;
 pub mod profiles;
+pub mod sim;
 pub mod uniform;
 
 pub use api::{
@@ -21,4 +24,5 @@ pub use api::{
 };
 pub use clock::MissionClock;
 pub use log::{LogRecord, LogSink, MemorySink, NullSink, SharedSink};
+pub use sim::{SimConfig, SimDrone, SimDroneSpec, SimError, SimFleet};
 pub use uniform::Uniform;

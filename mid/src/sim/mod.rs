@@ -1,0 +1,886 @@
+//! The built-in simulator: every drone of a mission that no fleet file
+//! binds to a real autopilot flies here.
+//!
+//! One [`SimFleet`] holds all simulated drones of a process and advances
+//! them together in fixed simulated steps, so that they agree on mission
+//! time. Steps are paced by tokio's clock at `step / speed` of real time:
+//! `speed = 20` flies twenty times faster than real time, and tests with
+//! tokio's paused time run as fast as the machine allows while staying
+//! deterministic. Each drone is a [`SimDrone`], an [`Adapter`] over the
+//! synchronous [`kinematics::Multirotor`] model.
+//!
+//! How the simulated copter answers the mission, like a real one would:
+//! - `Arm` is refused on an empty battery; `Disarm` in the air.
+//! - `Takeoff` is refused unless armed and on the ground.
+//! - Motions (`FlyBy*`, `FlyTo`, `Hover`, `ReturnHome`) are refused on the
+//!   ground; they end when the drone is within the arrival tolerance of the
+//!   target (position and speed), and it then holds the target.
+//! - `FlyBy*` moves from the point the drone holds, so that a run of small
+//!   moves adds up exactly.
+//! - `Land` ends on the ground; the motors stay armed until `Disarm`.
+//! - Cancelling a motion brakes to a stop and holds there.
+//! - A second motion while one runs is refused (the profile's `motion`
+//!   resource says they exclude each other), except the very same call,
+//!   which waits for the running one: four branches that each call
+//!   `D3.Land()` land D3 once.
+//! - The system and camera actions take a short simulated time
+//!   ([`ActionDurations`]); `Calibrate` is refused while armed.
+//! - A drone with a [`script::Script`] is flown by a scripted pilot once it
+//!   is in the air (see [`script`]).
+
+pub mod kinematics;
+pub mod script;
+
+use std::sync::{Arc, Mutex, MutexGuard, Weak};
+use std::time::Duration;
+
+use async_trait::async_trait;
+use serde::{Deserialize, Serialize};
+use tokio::sync::watch;
+use tokio::time::Instant;
+
+use crate::api::{
+    ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken, FlightMode, MultirotorAction,
+    Telemetry, Vec3,
+};
+use crate::clock::MissionClock;
+use crate::log::{AdapterEvent, AdapterRecord, LogRecord, SharedSink};
+
+use kinematics::{Multirotor, MultirotorConfig, Refusal};
+use script::{PilotEvent, Script, ScriptPilot};
+
+/// How the whole simulated fleet runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimConfig {
+    /// Simulated seconds per step.
+    pub step: f64,
+    /// Simulated seconds per real second (20 runs twenty times faster).
+    pub speed: f64,
+    /// Simulated seconds between telemetry updates (state changes such as
+    /// arming or an action's end are published at once as well).
+    pub telemetry_period: f64,
+    /// Simulated seconds between position records in the adapter log,
+    /// while armed.
+    pub position_log_period: f64,
+    pub durations: ActionDurations,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            step: 0.02,
+            speed: 1.0,
+            telemetry_period: 0.1,
+            position_log_period: 1.0,
+            durations: ActionDurations::default(),
+        }
+    }
+}
+
+/// Simulated seconds the actions that do not move the drone take.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ActionDurations {
+    pub turn_on: f64,
+    pub pre_flight_check: f64,
+    pub calibrate: f64,
+    pub turn_on_camera: f64,
+    pub adjust_camera: f64,
+    pub take_photo: f64,
+}
+
+impl Default for ActionDurations {
+    fn default() -> Self {
+        Self {
+            turn_on: 2.0,
+            pre_flight_check: 3.0,
+            calibrate: 5.0,
+            turn_on_camera: 1.0,
+            adjust_camera: 1.0,
+            take_photo: 0.5,
+        }
+    }
+}
+
+impl SimConfig {
+    pub fn validate(&self) -> Result<(), SimError> {
+        if !(self.speed.is_finite() && self.speed > 0.0) {
+            return Err(SimError::BadSpeed(self.speed));
+        }
+        if !(self.step.is_finite() && (0.001..=1.0).contains(&self.step)) {
+            return Err(SimError::BadStep(self.step));
+        }
+        for (name, v) in [
+            ("telemetry_period", self.telemetry_period),
+            ("position_log_period", self.position_log_period),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(SimError::BadConfig(format!(
+                    "`{name}` must be above zero, not {v}"
+                )));
+            }
+        }
+        let d = &self.durations;
+        for (name, v) in [
+            ("durations.turn_on", d.turn_on),
+            ("durations.pre_flight_check", d.pre_flight_check),
+            ("durations.calibrate", d.calibrate),
+            ("durations.turn_on_camera", d.turn_on_camera),
+            ("durations.adjust_camera", d.adjust_camera),
+            ("durations.take_photo", d.take_photo),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(SimError::BadConfig(format!(
+                    "`{name}` must be zero or more seconds, not {v}"
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One simulated drone (from a fleet file, or made in code).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimDroneSpec {
+    /// The drone's name in the mission.
+    pub name: String,
+    /// Where the drone starts, in the fleet frame (metres north, east, up
+    /// of the fleet's origin); its local frame is centred here.
+    #[serde(default)]
+    pub home: Vec3,
+    #[serde(default)]
+    pub vehicle: MultirotorConfig,
+    /// A scripted pilot that flies the drone once it is airborne.
+    #[serde(default)]
+    pub script: Option<Script>,
+}
+
+impl SimDroneSpec {
+    /// A drone with the default airframe and no script.
+    pub fn new(name: impl Into<String>, home: Vec3) -> Self {
+        Self {
+            name: name.into(),
+            home,
+            vehicle: MultirotorConfig::default(),
+            script: None,
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    #[error("the simulation speed must be above zero, not {0}")]
+    BadSpeed(f64),
+    #[error("the simulation step must be between 0.001 s and 1 s, not {0} s")]
+    BadStep(f64),
+    #[error("the simulation settings are not valid: {0}")]
+    BadConfig(String),
+    #[error("drone `{0}` is already in the simulated fleet")]
+    Duplicate(String),
+    #[error("the airframe of simulated drone `{drone}` is not valid: {reason}")]
+    BadVehicle { drone: String, reason: String },
+    #[error("the script of simulated drone `{drone}` is not valid: {reason}")]
+    BadScript { drone: String, reason: String },
+    #[error("the simulator must be started inside a tokio runtime")]
+    NoRuntime,
+}
+
+/// Steps done at most per wake-up before letting other tasks run.
+const MAX_BATCH: u64 = 2_000;
+/// Steps behind schedule after which the simulation gives up catching up
+/// and runs slower than asked, rather than in bursts.
+const MAX_LAG: u64 = 20_000;
+
+/// All simulated drones of a process, on one clock.
+///
+/// The simulation runs while the fleet or any of its drones is held, and
+/// stops by itself when the last is dropped.
+pub struct SimFleet {
+    world: Arc<World>,
+}
+
+impl SimFleet {
+    /// Starts the stepping task. Must be called inside a tokio runtime.
+    pub fn start(config: SimConfig) -> Result<Self, SimError> {
+        config.validate()?;
+        let handle = tokio::runtime::Handle::try_current().map_err(|_| SimError::NoRuntime)?;
+        let (time_tx, time_rx) = watch::channel(0.0);
+        let world = Arc::new(World {
+            clock: MissionClock::simulated(time_rx),
+            time_tx,
+            state: Mutex::new(WorldState {
+                steps: 0,
+                drones: Vec::new(),
+            }),
+            config,
+        });
+        handle.spawn(drive(
+            Arc::downgrade(&world),
+            world.config.step,
+            world.config.speed,
+        ));
+        Ok(Self { world })
+    }
+
+    /// Adds a drone, at rest and disarmed on its home. Its records go to
+    /// `log`.
+    pub fn add_drone(&self, spec: SimDroneSpec, log: SharedSink) -> Result<SimDrone, SimError> {
+        spec.vehicle
+            .validate()
+            .map_err(|reason| SimError::BadVehicle {
+                drone: spec.name.clone(),
+                reason,
+            })?;
+        if !spec.home.is_finite() {
+            return Err(SimError::BadVehicle {
+                drone: spec.name.clone(),
+                reason: format!("the home {} is not finite", spec.home),
+            });
+        }
+        if let Some(script) = &spec.script {
+            script.validate().map_err(|reason| SimError::BadScript {
+                drone: spec.name.clone(),
+                reason,
+            })?;
+        }
+        let mut state = self.world.lock();
+        if state.drones.iter().any(|d| d.name == spec.name) {
+            return Err(SimError::Duplicate(spec.name));
+        }
+        let now = state.now(self.world.config.step);
+        let model = Multirotor::new(spec.vehicle);
+        let telemetry = watch::Sender::new(model.telemetry(now, spec.home));
+        let index = state.drones.len();
+        let slot = Slot {
+            name: spec.name.clone(),
+            home: spec.home,
+            pilot: spec.script.map(ScriptPilot::new),
+            model,
+            telemetry,
+            log,
+            motion: None,
+            next_motion: 1,
+            next_telemetry: now,
+            next_position_log: now,
+            dirty: true,
+        };
+        slot.note(
+            now,
+            AdapterEvent::State {
+                detail: format!(
+                    "simulated drone at home {} (fleet frame){}",
+                    spec.home,
+                    if slot.pilot.is_some() {
+                        ", flown by a scripted pilot once airborne"
+                    } else {
+                        ""
+                    }
+                ),
+            },
+        );
+        state.drones.push(slot);
+        Ok(SimDrone {
+            world: self.world.clone(),
+            index,
+            name: spec.name,
+        })
+    }
+
+    /// A drone of the fleet by name.
+    pub fn drone(&self, name: &str) -> Option<SimDrone> {
+        let state = self.world.lock();
+        state
+            .drones
+            .iter()
+            .position(|d| d.name == name)
+            .map(|index| SimDrone {
+                world: self.world.clone(),
+                index,
+                name: name.to_string(),
+            })
+    }
+
+    /// The fleet's mission clock (simulated time).
+    pub fn clock(&self) -> MissionClock {
+        self.world.clock.clone()
+    }
+
+    pub fn config(&self) -> &SimConfig {
+        &self.world.config
+    }
+
+    /// Steps simulated so far.
+    pub fn steps(&self) -> u64 {
+        self.world.lock().steps
+    }
+}
+
+/// Advances the world on schedule until nobody holds it any more.
+async fn drive(world: Weak<World>, step: f64, speed: f64) {
+    let mut origin = Instant::now();
+    let mut base: u64 = 0;
+    let mut done: u64 = 0;
+    loop {
+        let Some(w) = world.upgrade() else {
+            return;
+        };
+        let due = base + (origin.elapsed().as_secs_f64() * speed / step + 1e-6).floor() as u64;
+        let mut n = 0;
+        while done < due && n < MAX_BATCH {
+            w.step();
+            done += 1;
+            n += 1;
+        }
+        drop(w);
+        if due > done + MAX_LAG {
+            origin = Instant::now();
+            base = done;
+        }
+        if done < due {
+            tokio::task::yield_now().await;
+            continue;
+        }
+        let next = origin + Duration::from_secs_f64((done - base + 1) as f64 * step / speed);
+        tokio::time::sleep_until(next).await;
+    }
+}
+
+struct World {
+    config: SimConfig,
+    clock: MissionClock,
+    time_tx: watch::Sender<f64>,
+    state: Mutex<WorldState>,
+}
+
+struct WorldState {
+    steps: u64,
+    drones: Vec<Slot>,
+}
+
+impl WorldState {
+    fn now(&self, step: f64) -> f64 {
+        self.steps as f64 * step
+    }
+}
+
+impl World {
+    fn lock(&self) -> MutexGuard<'_, WorldState> {
+        // A panic elsewhere must not ground the whole fleet.
+        self.state.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    fn step(&self) {
+        let now = {
+            let mut state = self.lock();
+            state.steps += 1;
+            let now = state.now(self.config.step);
+            for slot in &mut state.drones {
+                slot.step(now, &self.config);
+            }
+            now
+        };
+        self.time_tx.send_replace(now);
+    }
+}
+
+/// When a running motion is over.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Until {
+    Arrive(Vec3),
+    Landed,
+    Time(f64),
+}
+
+type Outcome = Option<Result<(), ActionError>>;
+
+struct Motion {
+    id: u64,
+    call: ActionCall,
+    until: Until,
+    done: watch::Sender<Outcome>,
+    /// Calls waiting on this motion (the same call made twice joins).
+    waiters: usize,
+}
+
+struct Slot {
+    name: String,
+    home: Vec3,
+    model: Multirotor,
+    pilot: Option<ScriptPilot>,
+    telemetry: watch::Sender<Telemetry>,
+    log: SharedSink,
+    motion: Option<Motion>,
+    next_motion: u64,
+    next_telemetry: f64,
+    next_position_log: f64,
+    /// Something changed that telemetry readers should see now.
+    dirty: bool,
+}
+
+impl Slot {
+    fn note(&self, time: f64, event: AdapterEvent) {
+        self.log.record(LogRecord::Adapter(AdapterRecord {
+            time,
+            drone: self.name.clone(),
+            adapter: "sim".to_string(),
+            event,
+        }));
+    }
+
+    fn state(&self, time: f64, detail: impl Into<String>) {
+        self.note(
+            time,
+            AdapterEvent::State {
+                detail: detail.into(),
+            },
+        );
+    }
+
+    fn publish(&mut self, now: f64) {
+        self.telemetry
+            .send_replace(self.model.telemetry(now, self.home));
+        self.dirty = false;
+    }
+
+    fn step(&mut self, now: f64, config: &SimConfig) {
+        if let Some(pilot) = &mut self.pilot {
+            let busy = self.motion.is_some();
+            let events = pilot.update(now, &mut self.model, busy);
+            for e in events {
+                self.dirty = true;
+                let detail = match e {
+                    PilotEvent::TookOver => "the scripted pilot took over".to_string(),
+                    PilotEvent::LegStarted { index } => format!(
+                        "scripted pilot: leg {} begins, {}",
+                        index + 1,
+                        self.model.guidance()
+                    ),
+                    PilotEvent::LegDone { index, position } => {
+                        format!("scripted pilot: leg {} done at {position}", index + 1)
+                    }
+                    PilotEvent::LetGo => {
+                        "the scripted pilot let go; the drone holds and the mission has control"
+                            .to_string()
+                    }
+                    PilotEvent::Released => "the mission took control from the pilot".to_string(),
+                    PilotEvent::Stuck { index, reason } => {
+                        format!("scripted pilot cannot fly leg {}: {reason}", index + 1)
+                    }
+                };
+                self.state(now, detail);
+            }
+        }
+
+        let events = self.model.step(config.step);
+        if events.lifted_off {
+            self.dirty = true;
+            self.state(now, "lifted off");
+        }
+        if events.touched_down {
+            self.dirty = true;
+            let p = self.model.position();
+            self.state(now, format!("touched down at ({:.2}, {:.2})", p.x, p.y));
+        }
+        let mut completion: Option<Result<(), ActionError>> = None;
+        if events.battery_emptied {
+            self.dirty = true;
+            self.state(now, "the battery is empty; landing where it is");
+            if let Some(pilot) = &mut self.pilot {
+                pilot.release();
+            }
+            if let Some(m) = &self.motion {
+                if m.until != Until::Landed {
+                    completion = Some(Err(ActionError::failed(
+                        &m.call.name,
+                        "the battery ran out; the drone is landing where it is",
+                    )));
+                }
+            }
+        }
+        if completion.is_none() {
+            if let Some(m) = &self.motion {
+                let finished = match m.until {
+                    Until::Arrive(p) => self.model.is_at(p),
+                    Until::Landed => self.model.landed(),
+                    Until::Time(t) => now >= t - 1e-9,
+                };
+                if finished {
+                    if let Until::Arrive(p) = m.until {
+                        self.model.hold_at(p);
+                    }
+                    completion = Some(Ok(()));
+                }
+            }
+        }
+        if completion.is_some() {
+            self.dirty = true;
+        }
+
+        if self.dirty || now >= self.next_telemetry - 1e-9 {
+            self.publish(now);
+            if now >= self.next_telemetry - 1e-9 {
+                self.next_telemetry = now + config.telemetry_period;
+            }
+        }
+        if self.model.is_armed() && now >= self.next_position_log - 1e-9 {
+            self.next_position_log = now + config.position_log_period;
+            self.note(
+                now,
+                AdapterEvent::Position {
+                    position: self.model.position(),
+                    velocity: self.model.velocity(),
+                    battery: self.model.battery(),
+                    armed: true,
+                    mode: self.model.mode(),
+                },
+            );
+        }
+
+        if let Some(result) = completion {
+            if let Some(m) = self.motion.take() {
+                self.note(
+                    now,
+                    AdapterEvent::Completed {
+                        action: m.call.name.clone(),
+                        outcome: match &result {
+                            Ok(()) => "ok".to_string(),
+                            Err(e) => e.kind().to_string(),
+                        },
+                        detail: format!("at {}", self.model.position()),
+                    },
+                );
+                m.done.send_replace(Some(result));
+            }
+        }
+    }
+}
+
+/// One simulated drone: the [`Adapter`] the executor drives.
+#[derive(Clone)]
+pub struct SimDrone {
+    world: Arc<World>,
+    index: usize,
+    name: String,
+}
+
+/// What starting an action led to.
+enum Start {
+    /// Done already (arming, a refusal).
+    Finished(Result<(), ActionError>),
+    /// A motion is running: wait on it.
+    Wait {
+        id: u64,
+        done: watch::Receiver<Outcome>,
+    },
+    /// A timed action that does not move the drone.
+    Timed(f64),
+}
+
+impl SimDrone {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The drone's home in the fleet frame.
+    pub fn home(&self) -> Vec3 {
+        self.with_slot(|slot, _| slot.home)
+    }
+
+    /// A copy of the kinematic model as it is now (for tests and tools).
+    pub fn model(&self) -> Multirotor {
+        self.with_slot(|slot, _| slot.model.clone())
+    }
+
+    fn with_slot<R>(&self, f: impl FnOnce(&mut Slot, f64) -> R) -> R {
+        let mut state = self.world.lock();
+        let now = state.now(self.world.config.step);
+        f(&mut state.drones[self.index], now)
+    }
+
+    fn start(&self, call: &ActionCall, action: MultirotorAction) -> Start {
+        let durations = &self.world.config.durations;
+        self.with_slot(|slot, now| {
+            let name = action.name();
+            let refused = |r: Refusal| Start::Finished(Err(ActionError::refused(name, r)));
+
+            if !action.is_motion() {
+                let seconds = match action {
+                    MultirotorAction::TurnOn => durations.turn_on,
+                    MultirotorAction::PreFlightCheck => durations.pre_flight_check,
+                    MultirotorAction::Calibrate => {
+                        if slot.model.is_armed() {
+                            return Start::Finished(Err(ActionError::refused(
+                                name,
+                                "sensors are calibrated with the motors disarmed; call Disarm first",
+                            )));
+                        }
+                        durations.calibrate
+                    }
+                    MultirotorAction::TurnOnCamera => durations.turn_on_camera,
+                    MultirotorAction::AdjustCamera => durations.adjust_camera,
+                    _ => durations.take_photo,
+                };
+                slot.note(
+                    now,
+                    AdapterEvent::Command {
+                        action: name.to_string(),
+                        args: call.args.clone(),
+                        detail: format!("simulated, {seconds} s"),
+                    },
+                );
+                return Start::Timed(seconds);
+            }
+
+            if let Some(m) = &mut slot.motion {
+                if m.call == *call {
+                    m.waiters += 1;
+                    let wait = Start::Wait {
+                        id: m.id,
+                        done: m.done.subscribe(),
+                    };
+                    slot.state(now, format!("{call} joins the same running call"));
+                    return wait;
+                }
+                return Start::Finished(Err(ActionError::refused(
+                    name,
+                    format!("the drone is busy with {}", m.call),
+                )));
+            }
+
+            let piloted = slot.pilot.as_ref().is_some_and(|p| p.is_flying());
+            if piloted {
+                match action {
+                    MultirotorAction::Land | MultirotorAction::ReturnHome => {
+                        if let Some(p) = &mut slot.pilot {
+                            p.release();
+                        }
+                        slot.state(
+                            now,
+                            format!("the scripted pilot hands control back for {name}"),
+                        );
+                    }
+                    MultirotorAction::Arm => return Start::Finished(Ok(())),
+                    _ => {
+                        return Start::Finished(Err(ActionError::refused(
+                            name,
+                            "the drone is flown by its pilot and the mission only watches it \
+                             (Land and ReturnHome take control back)",
+                        )))
+                    }
+                }
+            }
+
+            let model = &mut slot.model;
+            let until = match action {
+                MultirotorAction::Arm => {
+                    let was = model.is_armed();
+                    return match model.arm() {
+                        Ok(()) => {
+                            if !was {
+                                slot.dirty = true;
+                                slot.publish(now);
+                                slot.state(now, "armed");
+                            }
+                            Start::Finished(Ok(()))
+                        }
+                        Err(r) => refused(r),
+                    };
+                }
+                MultirotorAction::Disarm => {
+                    let was = model.is_armed();
+                    return match model.disarm() {
+                        Ok(()) => {
+                            if was {
+                                slot.publish(now);
+                                slot.state(now, "disarmed");
+                            }
+                            Start::Finished(Ok(()))
+                        }
+                        Err(r) => refused(r),
+                    };
+                }
+                MultirotorAction::Takeoff { height } => match model.takeoff(height) {
+                    Ok(()) => {
+                        let p = model.position();
+                        Until::Arrive(Vec3::new(p.x, p.y, height))
+                    }
+                    Err(r) => return refused(r),
+                },
+                MultirotorAction::Land => {
+                    if model.on_ground() {
+                        slot.state(now, "Land: already on the ground");
+                        return Start::Finished(Ok(()));
+                    }
+                    model.land();
+                    Until::Landed
+                }
+                MultirotorAction::FlyBy { axis, distance } => {
+                    let target = model.reference() + axis.unit() * distance;
+                    match model.go_to(target, FlightMode::Guided) {
+                        Ok(()) => Until::Arrive(target),
+                        Err(r) => return refused(r),
+                    }
+                }
+                MultirotorAction::FlyTo { target } => {
+                    match model.go_to(target, FlightMode::Guided) {
+                        Ok(()) => Until::Arrive(target),
+                        Err(r) => return refused(r),
+                    }
+                }
+                MultirotorAction::ReturnHome => {
+                    let target = Vec3::new(0.0, 0.0, model.reference().z);
+                    match model.go_to(target, FlightMode::ReturnHome) {
+                        Ok(()) => Until::Arrive(target),
+                        Err(r) => return refused(r),
+                    }
+                }
+                MultirotorAction::Hover { seconds } => {
+                    if !model.is_airborne() {
+                        return refused(Refusal::OnGround);
+                    }
+                    let at = model.reference();
+                    model.hold_at(at);
+                    Until::Time(now + seconds)
+                }
+                _ => unreachable!("every motion is matched above"),
+            };
+            let id = slot.next_motion;
+            slot.next_motion += 1;
+            let (done, rx) = watch::channel(None);
+            slot.note(
+                now,
+                AdapterEvent::Command {
+                    action: name.to_string(),
+                    args: call.args.clone(),
+                    detail: slot.model.guidance().to_string(),
+                },
+            );
+            slot.motion = Some(Motion {
+                id,
+                call: call.clone(),
+                until,
+                done,
+                waiters: 1,
+            });
+            slot.publish(now);
+            Start::Wait { id, done: rx }
+        })
+    }
+
+    /// The mission cancelled motion `id`: the last caller waiting on it
+    /// stops it, and the drone brakes and holds.
+    fn cancel_motion(&self, id: u64) {
+        self.with_slot(|slot, now| {
+            let Some(m) = &mut slot.motion else {
+                return;
+            };
+            if m.id != id {
+                return;
+            }
+            m.waiters -= 1;
+            if m.waiters > 0 {
+                return;
+            }
+            let name = m.call.name.clone();
+            slot.motion = None;
+            slot.model.hold();
+            slot.note(
+                now,
+                AdapterEvent::Completed {
+                    action: name,
+                    outcome: "cancelled".to_string(),
+                    detail: format!("braking to hold at {}", slot.model.guidance()),
+                },
+            );
+            slot.publish(now);
+        });
+    }
+}
+
+async fn wait_for(mut done: watch::Receiver<Outcome>, action: &str) -> Result<(), ActionError> {
+    loop {
+        if let Some(result) = done.borrow_and_update().clone() {
+            return result;
+        }
+        if done.changed().await.is_err() {
+            return done.borrow().clone().unwrap_or_else(|| {
+                Err(ActionError::failed(
+                    action,
+                    "the simulation stopped before the action ended",
+                ))
+            });
+        }
+    }
+}
+
+#[async_trait]
+impl Adapter for SimDrone {
+    fn info(&self) -> AdapterInfo {
+        let scripted = self.with_slot(|slot, _| slot.pilot.is_some());
+        AdapterInfo {
+            kind: "sim".to_string(),
+            drone: self.name.clone(),
+            detail: format!(
+                "home {}, speed x{}{}",
+                self.home(),
+                self.world.config.speed,
+                if scripted { ", scripted pilot" } else { "" }
+            ),
+        }
+    }
+
+    fn telemetry(&self) -> watch::Receiver<Telemetry> {
+        self.with_slot(|slot, _| slot.telemetry.subscribe())
+    }
+
+    fn clock(&self) -> MissionClock {
+        self.world.clock.clone()
+    }
+
+    async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError> {
+        let action = MultirotorAction::parse(call)?;
+        let name = action.name();
+        if cancel.is_cancelled() {
+            return Err(ActionError::Cancelled {
+                action: name.to_string(),
+            });
+        }
+        match self.start(call, action) {
+            Start::Finished(result) => result,
+            Start::Timed(seconds) => {
+                let clock = self.world.clock.clone();
+                let result = tokio::select! {
+                    biased;
+                    _ = clock.sleep(seconds) => Ok(()),
+                    _ = cancel.cancelled() => Err(ActionError::Cancelled { action: name.to_string() }),
+                };
+                self.with_slot(|slot, now| {
+                    slot.note(
+                        now,
+                        AdapterEvent::Completed {
+                            action: name.to_string(),
+                            outcome: match &result {
+                                Ok(()) => "ok".to_string(),
+                                Err(e) => e.kind().to_string(),
+                            },
+                            detail: String::new(),
+                        },
+                    )
+                });
+                result
+            }
+            Start::Wait { id, done } => {
+                tokio::select! {
+                    biased;
+                    result = wait_for(done, name) => result,
+                    _ = cancel.cancelled() => {
+                        self.cancel_motion(id);
+                        Err(ActionError::Cancelled { action: name.to_string() })
+                    }
+                }
+            }
+        }
+    }
+}
