@@ -884,3 +884,6 @@ impl Adapter for SimDrone {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
