@@ -4,8 +4,62 @@
 //! tree (lalrpop) -> checked mission ([`hir::Mission`])`. This crate knows
 //! nothing of Petri nets, slices or adapters: it only checks a mission
 //! against the capability profiles it is handed.
+//!
+//! ```
+//! # use eamos_lang::{compile, SourceFile};
+//! # let profiles = eamos_profile::ProfileTable::new();
+//! let file = SourceFile::new("m.go", "package M\nfunc INIT() {}\n");
+//! let compiled = compile(&file, &profiles).expect("an empty mission compiles");
+//! assert_eq!(compiled.mission.name, "M");
+//! assert_eq!(compiled.warnings[0].code, "eamos::empty-mission");
+//! ```
 
+pub mod ast;
+pub mod check;
+pub mod diag;
 pub mod hir;
+pub mod lexer;
+pub mod parser;
 pub mod span;
 
+pub use diag::{render, render_all, Diagnostic, Record, Severity, Style};
 pub use span::{SourceFile, Span};
+
+use eamos_profile::ProfileTable;
+
+/// A mission that compiled, and what is worth a look in it anyway.
+#[derive(Debug, Clone)]
+pub struct Compiled {
+    pub mission: hir::Mission,
+    pub warnings: Vec<Diagnostic>,
+}
+
+/// Compiles one mission file against the given capability profiles.
+///
+/// On failure, every diagnostic found (errors and warnings, in source order)
+/// is returned: syntax errors do not stop the checks of what could be read.
+pub fn compile(file: &SourceFile, profiles: &ProfileTable) -> Result<Compiled, Vec<Diagnostic>> {
+    let (ast, mut diags) = parser::parse(file);
+    // Syntax errors and runaway strings or comments may hide declarations;
+    // other lexical errors (a stray character, a bad number) do not.
+    let complete = !diags.iter().any(|d| {
+        d.is_error()
+            && matches!(
+                d.code,
+                "eamos::syntax" | "eamos::unterminated-comment" | "eamos::unterminated-string"
+            )
+    });
+    let (mission, checked) = check::check(&ast, file, profiles, complete);
+    diags.extend(checked);
+    if diags.iter().any(Diagnostic::is_error) {
+        diags.retain(|d| d.is_error() || !check::WHOLE_MISSION_WARNINGS.contains(&d.code));
+    }
+    diags.sort_by_key(|d| (d.span.start, d.span.end));
+    match mission {
+        Some(mission) if !diags.iter().any(Diagnostic::is_error) => Ok(Compiled {
+            mission,
+            warnings: diags,
+        }),
+        _ => Err(diags),
+    }
+}

@@ -1,0 +1,9 @@
+// Go needs the opening brace on the line of `func`.
+package NextLineBrace
+
+var Drone1 Quadcopter
+
+func INIT()
+{
+	Drone1.Arm()
+}
