@@ -438,7 +438,11 @@ pub trait Adapter: Send + Sync {
 
     /// Runs one action to its end: `Ok(())` when the drone did it, a typed
     /// error otherwise. When `cancel` fires, a motion holds where it is and
-    /// the call returns [`ActionError::Cancelled`] promptly.
+    /// the call returns [`ActionError::Cancelled`] promptly. Dropping the
+    /// returned future should stop a motion the same way (the simulator
+    /// does), so that a caller that stops waiting never leaves a drone
+    /// flying on for nobody; callers should still prefer the token, which
+    /// also reports the outcome.
     async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError>;
 }
 

@@ -66,9 +66,13 @@ impl MissionClock {
     /// simulation has stopped never reaches `t`, so this then waits forever
     /// (as time does not pass); wrap it in a cancellation if that matters.
     pub async fn sleep_until(&self, t: f64) {
+        if t.is_nan() {
+            return;
+        }
         match &self.kind {
             ClockKind::Wall { origin } => {
-                let t = if t.is_finite() { t.max(0.0) } else { 1.0e9 };
+                // About thirty years: beyond any mission, within `Duration`.
+                let t = t.clamp(0.0, 1.0e9);
                 tokio::time::sleep_until(*origin + Duration::from_secs_f64(t)).await;
             }
             ClockKind::Simulated { time } => {
@@ -111,6 +115,26 @@ mod tests {
         tx.send(2.0).unwrap();
         sleeper.await.unwrap();
         assert_eq!(clock.now(), 2.0);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn sleeping_until_a_time_that_is_not_a_number_or_is_past_returns_at_once() {
+        let (_tx, rx) = watch::channel(5.0);
+        let sim = MissionClock::simulated(rx);
+        sim.sleep_until(f64::NAN).await;
+        sim.sleep_until(4.0).await;
+        sim.sleep(-3.0).await;
+        let wall = MissionClock::wall();
+        wall.sleep_until(f64::NAN).await;
+        wall.sleep(-1.0).await;
+        assert!(wall.now() < 0.01);
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_wall_clock_sleep_far_beyond_any_mission_does_not_overflow() {
+        let wall = MissionClock::wall();
+        let far = tokio::time::timeout(Duration::from_secs(5), wall.sleep_until(1.0e300)).await;
+        assert!(far.is_err(), "still sleeping after 5 s");
     }
 
     #[tokio::test(start_paused = true)]

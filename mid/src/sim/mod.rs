@@ -769,8 +769,9 @@ impl SimDrone {
         })
     }
 
-    /// The mission cancelled motion `id`: the last caller waiting on it
-    /// stops it, and the drone brakes and holds.
+    /// A caller stops waiting on motion `id` (cancelled, or dropped its
+    /// call): the last caller waiting on it stops it, and the drone brakes
+    /// and holds. Nothing happens if the motion already ended.
     fn cancel_motion(&self, id: u64) {
         self.with_slot(|slot, now| {
             let Some(m) = &mut slot.motion else {
@@ -796,6 +797,18 @@ impl SimDrone {
             );
             slot.publish(now);
         });
+    }
+}
+
+/// Lets go of motion `id` when dropped (see [`SimDrone::cancel_motion`]).
+struct LeaveOnDrop<'a> {
+    drone: &'a SimDrone,
+    id: u64,
+}
+
+impl Drop for LeaveOnDrop<'_> {
+    fn drop(&mut self) {
+        self.drone.cancel_motion(self.id);
     }
 }
 
@@ -872,11 +885,15 @@ impl Adapter for SimDrone {
                 result
             }
             Start::Wait { id, done } => {
+                // Leaving this call, by cancellation or because the caller
+                // dropped the future, lets go of the motion: the last caller
+                // to let go stops it, so the drone never flies on for
+                // nobody. A motion that already ended is not touched.
+                let _leave = LeaveOnDrop { drone: self, id };
                 tokio::select! {
                     biased;
                     result = wait_for(done, name) => result,
                     _ = cancel.cancelled() => {
-                        self.cancel_motion(id);
                         Err(ActionError::Cancelled { action: name.to_string() })
                     }
                 }

@@ -132,6 +132,26 @@ async fn cancelling_a_motion_returns_cancelled_at_once_and_the_drone_holds_there
 }
 
 #[tokio::test(start_paused = true)]
+async fn dropping_a_running_motion_stops_it_like_a_cancellation() {
+    let f = fleet(1.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    airborne(&d, 3.0).await;
+    let clock = d.clock();
+    let stopped_waiting = tokio::time::timeout(
+        std::time::Duration::from_secs(3),
+        run(&d, "FlyByX", &[50.0]),
+    )
+    .await;
+    assert!(stopped_waiting.is_err(), "the flight cannot be over yet");
+    assert_eq!(d.model().mode(), FlightMode::Hold);
+    clock.sleep(6.0).await;
+    let t = now(&d);
+    assert!(t.position.x < 20.0 && t.velocity.norm() < 0.05);
+    // Not busy any more.
+    run(&d, "FlyByY", &[1.0]).await.unwrap();
+}
+
+#[tokio::test(start_paused = true)]
 async fn an_already_cancelled_token_starts_nothing() {
     let f = fleet(1.0);
     let d = drone(&f, "D1", Vec3::ZERO);
