@@ -1,0 +1,569 @@
+//! The adapter flying the test vehicle over real loopback sockets: the
+//! whole protocol path, each failure a pilot meets in the field.
+//!
+//! Every wait is bounded by a generous timeout (a stuck test fails instead
+//! of hanging); nothing asserts how fast anything happened.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use mavlink::MavHeader;
+use tokio::time::timeout;
+
+use super::adapter::{MavlinkAdapter, MavlinkOptions};
+use super::address::ConnectAddress;
+use super::dialect::{MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA};
+use super::frame::Ned;
+use super::link::Link;
+use super::modes::CopterMode;
+use super::readiness::Missing;
+use super::vehicle::{SimVehicle, SimVehicleOptions, VehicleSnapshot};
+use crate::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
+use crate::log::{AdapterEvent, LogRecord, MemorySink};
+
+/// Long enough for any action here on a loaded machine.
+const BOUND: Duration = Duration::from_secs(90);
+
+struct Rig {
+    adapter: MavlinkAdapter,
+    vehicle: SimVehicle,
+    log: Arc<MemorySink>,
+}
+
+async fn rig(
+    vehicle: impl FnOnce(&mut SimVehicleOptions),
+    adapter: impl FnOnce(&mut MavlinkOptions),
+) -> Rig {
+    let log = MemorySink::new();
+    let mut ao = MavlinkOptions {
+        log: log.clone(),
+        ready_timeout: Duration::from_secs(60),
+        link_timeout: Duration::from_secs(2),
+        ..MavlinkOptions::default()
+    };
+    adapter(&mut ao);
+    let a = MavlinkAdapter::connect("Drone1", "udpin:127.0.0.1:0", ao)
+        .await
+        .expect("a loopback listener opens");
+    let port = a.local_addr().unwrap().port();
+    let mut vo = SimVehicleOptions {
+        connect: ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
+        ready_after: 2.0,
+        speed: 10.0,
+        // The EKF origin is not where the copter stands: the mission frame
+        // must still start where it stands.
+        ekf_origin_offset: Ned::new(1.5, -2.0, 0.3),
+        ..SimVehicleOptions::default()
+    };
+    vehicle(&mut vo);
+    let v = SimVehicle::start(vo).await.expect("the vehicle boots");
+    Rig {
+        adapter: a,
+        vehicle: v,
+        log,
+    }
+}
+
+async fn run(a: &MavlinkAdapter, name: &str, args: &[f64]) -> Result<(), ActionError> {
+    timeout(
+        BOUND,
+        a.run(
+            &ActionCall::new(name, args.to_vec()),
+            CancellationToken::new(),
+        ),
+    )
+    .await
+    .unwrap_or_else(|_| panic!("{name} did not end within {BOUND:?}"))
+}
+
+async fn vehicle_until(
+    v: &SimVehicle,
+    what: &str,
+    f: impl Fn(&VehicleSnapshot) -> bool,
+) -> VehicleSnapshot {
+    let mut rx = v.watch();
+    let s = timeout(BOUND, rx.wait_for(|s| f(s)))
+        .await
+        .unwrap_or_else(|_| panic!("the vehicle never got to: {what}"))
+        .expect("the vehicle runs");
+    *s
+}
+
+fn near(a: Vec3, b: Vec3, tol: f64) -> bool {
+    a.distance(b) <= tol
+}
+
+fn notes(log: &MemorySink) -> Vec<String> {
+    log.records()
+        .into_iter()
+        .filter_map(|r| match r {
+            LogRecord::Adapter(a) => match a.event {
+                AdapterEvent::State { detail } => Some(detail),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
+}
+
+#[tokio::test]
+async fn the_adapter_arms_takes_off_flies_a_box_lands_and_disarms() {
+    let r = rig(|_| {}, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    assert!(v.snapshot().armed);
+    assert_eq!(v.snapshot().custom_mode, CopterMode::Guided.custom_mode());
+
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    let t = *a.telemetry().borrow();
+    assert!((t.position.z - 2.0).abs() <= 0.3, "{t:?}");
+    assert!((v.snapshot().position.z - 2.0).abs() <= 0.3);
+
+    for (action, args, expected) in [
+        ("FlyByX", vec![3.0], Vec3::new(3.0, 0.0, 2.0)),
+        ("FlyByY", vec![-2.0], Vec3::new(3.0, -2.0, 2.0)),
+        ("FlyTo", vec![1.0, 1.0, 3.0], Vec3::new(1.0, 1.0, 3.0)),
+        ("FlyByZ", vec![-1.0], Vec3::new(1.0, 1.0, 2.0)),
+        ("ReturnHome", vec![], Vec3::new(0.0, 0.0, 2.0)),
+    ] {
+        run(a, action, &args).await.unwrap();
+        // Arrival is judged from the autopilot's report, within 0.3 m.
+        let seen = a.telemetry().borrow().position;
+        assert!(
+            near(seen, expected, 0.3),
+            "{action}: telemetry at {seen}, expected {expected}"
+        );
+        // The vehicle really is there, in the frame it started in,
+        // although its EKF origin lies elsewhere.
+        let there = v.snapshot().position;
+        assert!(
+            near(there, expected, 0.4),
+            "{action}: vehicle at {there}, expected {expected}"
+        );
+    }
+
+    run(a, "Land", &[]).await.unwrap();
+    assert!(v.snapshot().on_ground);
+    run(a, "Disarm", &[]).await.unwrap();
+    assert!(!v.snapshot().armed);
+    let t = *a.telemetry().borrow();
+    assert!(t.landed && !t.armed);
+    assert_eq!(t.mode, FlightMode::Standby);
+
+    let notes = notes(&r.log);
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("found ArduPilot vehicle")),
+        "{notes:?}"
+    );
+    assert!(
+        notes.iter().any(|n| n == "mode GUIDED set and confirmed"),
+        "{notes:?}"
+    );
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.starts_with("ready; the mission frame's origin is N -1.50 E 2.00")),
+        "{notes:?}"
+    );
+}
+
+#[tokio::test]
+async fn arming_a_vehicle_that_never_gets_ready_times_out_naming_what_is_missing() {
+    let r = rig(
+        |v| v.ready_after = 1.0e6,
+        |a| a.ready_timeout = Duration::from_secs(3),
+    )
+    .await;
+    let e = run(&r.adapter, "Arm", &[]).await.unwrap_err();
+    let ActionError::Timeout { action, what } = &e else {
+        panic!("expected a timeout, got {e:?}");
+    };
+    assert_eq!(action, "Arm");
+    assert!(
+        what.starts_with("the vehicle was not ready to arm after"),
+        "{what}"
+    );
+    for missing in [
+        "a 3D GPS fix (now: no fix, 0 satellites)",
+        "an EKF position estimate (the EKF lacks horizontal velocity",
+        "LOCAL_POSITION_NED (the EKF origin is not set yet)",
+        "pre-arm checks to pass (autopilot: \"PreArm: GPS 1: Bad fix\")",
+    ] {
+        assert!(what.contains(missing), "`{missing}` not in: {what}");
+    }
+    // Nothing was armed and no mode was set.
+    assert!(!r.vehicle.snapshot().armed);
+    assert_eq!(
+        r.vehicle.snapshot().custom_mode,
+        CopterMode::Stabilize.custom_mode()
+    );
+    // The pilot saw progress while waiting.
+    assert!(notes(&r.log).iter().any(|n| n.starts_with("not ready yet")));
+    // The same answer, typed, from waiting up front.
+    let not_ready = r
+        .adapter
+        .wait_ready(Duration::from_millis(500))
+        .await
+        .unwrap_err();
+    assert!(not_ready
+        .missing
+        .iter()
+        .any(|m| matches!(m, Missing::GpsFix { .. })));
+    assert!(not_ready.missing.contains(&Missing::LocalPosition));
+}
+
+#[tokio::test]
+async fn a_refused_arming_names_the_command_the_result_and_the_autopilots_words() {
+    let r = rig(
+        |v| v.refuse_arming = Some("Arm: Hardware safety switch".to_string()),
+        |_| {},
+    )
+    .await;
+    let e = run(&r.adapter, "Arm", &[]).await.unwrap_err();
+    assert_eq!(
+        e,
+        ActionError::Refused {
+            action: "Arm".into(),
+            reason: "MAV_CMD_COMPONENT_ARM_DISARM was refused with MAV_RESULT_FAILED; the autopilot said: \"Arm: Hardware safety switch\"".into(),
+        }
+    );
+    assert!(!r.vehicle.snapshot().armed);
+}
+
+#[tokio::test]
+async fn losing_the_link_mid_flight_fails_the_motion_with_link_lost() {
+    let r = rig(|_| {}, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    let far = ActionCall::new("FlyTo", [60.0, 0.0, 2.0]);
+    let flight = a.run(&far, CancellationToken::new());
+    let cut = async {
+        vehicle_until(v, "moving north", |s| s.position.x > 1.0).await;
+        v.set_silent(true);
+        std::future::pending::<()>().await
+    };
+    let result = timeout(BOUND, async {
+        tokio::select! {
+            r = flight => r,
+            _ = cut => unreachable!(),
+        }
+    })
+    .await
+    .expect("a lost link ends the motion in bounded time");
+    assert_eq!(
+        result,
+        Err(ActionError::LinkLost {
+            action: "FlyTo".into()
+        })
+    );
+    assert!(notes(&r.log)
+        .iter()
+        .any(|n| n.starts_with("lost the link to the vehicle")));
+    // Every further action fails the same way at once, without waiting for
+    // acknowledgements that cannot come.
+    assert_eq!(
+        run(a, "Land", &[]).await,
+        Err(ActionError::LinkLost {
+            action: "Land".into()
+        })
+    );
+    // When the vehicle is heard again, the adapter says so and flies on.
+    v.set_silent(false);
+    timeout(BOUND, async {
+        while !notes(&r.log)
+            .iter()
+            .any(|n| n == "the link to the vehicle is back")
+        {
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    })
+    .await
+    .expect("the link comes back");
+    run(a, "Land", &[]).await.unwrap();
+    assert!(v.snapshot().on_ground);
+}
+
+#[tokio::test]
+async fn an_rc_switch_that_overrides_guided_right_after_it_was_set_is_met_by_setting_it_again() {
+    // At real time, so that heartbeats come once a second.
+    let r = rig(
+        |v| {
+            v.speed = 1.0;
+            v.ready_after = 0.5;
+        },
+        |_| {},
+    )
+    .await;
+    let v = &r.vehicle;
+    let arm_call = ActionCall::new("Arm", []);
+    let arm = r.adapter.run(&arm_call, CancellationToken::new());
+    let pilot = async {
+        vehicle_until(v, "GUIDED set", |s| {
+            s.custom_mode == CopterMode::Guided.custom_mode()
+        })
+        .await;
+        v.rc_select(CopterMode::Stabilize);
+        std::future::pending::<()>().await
+    };
+    let result = timeout(BOUND, async {
+        tokio::select! {
+            r = arm => r,
+            _ = pilot => unreachable!(),
+        }
+    })
+    .await
+    .expect("arming ends");
+    assert_eq!(result, Ok(()));
+    let s = v.snapshot();
+    assert!(s.armed);
+    assert_eq!(s.custom_mode, CopterMode::Guided.custom_mode());
+    assert!(
+        notes(&r.log)
+            .iter()
+            .any(|n| n.contains("left GUIDED for STABILIZE right after it was set")),
+        "{:?}",
+        notes(&r.log)
+    );
+}
+
+#[tokio::test]
+async fn a_pilot_taking_over_mid_flight_ends_the_motion_and_is_not_fought() {
+    let r = rig(|_| {}, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    let far = ActionCall::new("FlyTo", [60.0, 0.0, 2.0]);
+    let flight = a.run(&far, CancellationToken::new());
+    let pilot = async {
+        vehicle_until(v, "moving north", |s| s.position.x > 1.0).await;
+        v.rc_select(CopterMode::Loiter);
+        std::future::pending::<()>().await
+    };
+    let result = timeout(BOUND, async {
+        tokio::select! {
+            r = flight => r,
+            _ = pilot => unreachable!(),
+        }
+    })
+    .await
+    .unwrap();
+    let e = result.unwrap_err();
+    assert_eq!(e.kind(), "failed");
+    assert!(e.to_string().contains("switched to LOITER"), "{e}");
+    // The next motion is refused rather than taking the drone back.
+    let e = run(a, "FlyByX", &[1.0]).await.unwrap_err();
+    assert_eq!(e.kind(), "refused");
+    assert!(e.to_string().contains("in LOITER, not GUIDED"), "{e}");
+    assert_eq!(v.snapshot().custom_mode, CopterMode::Loiter.custom_mode());
+}
+
+#[tokio::test]
+async fn a_cancelled_motion_returns_promptly_and_the_drone_holds_where_it_was() {
+    let r = rig(|_| {}, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    let cancel = CancellationToken::new();
+    let far = ActionCall::new("FlyTo", [60.0, 0.0, 2.0]);
+    let flight = a.run(&far, cancel.clone());
+    let stop = async {
+        vehicle_until(v, "well on its way", |s| s.position.x > 3.0).await;
+        cancel.cancel();
+        std::future::pending::<()>().await
+    };
+    let result = timeout(BOUND, async {
+        tokio::select! {
+            r = flight => r,
+            _ = stop => unreachable!(),
+        }
+    })
+    .await
+    .unwrap();
+    assert_eq!(
+        result,
+        Err(ActionError::Cancelled {
+            action: "FlyTo".into()
+        })
+    );
+    let at_cancel = a.telemetry().borrow().position;
+    // It comes to rest near where it was cancelled, far short of 60 m.
+    let mut rx = v.watch();
+    let mut last = rx.borrow().position;
+    let settled = timeout(BOUND, async {
+        loop {
+            tokio::time::sleep(Duration::from_millis(500)).await;
+            let now = rx.borrow_and_update().position;
+            if now.distance(last) < 0.05 {
+                return now;
+            }
+            last = now;
+        }
+    })
+    .await
+    .expect("the drone comes to rest");
+    assert!(
+        settled.distance(at_cancel) < 1.0,
+        "held at {settled}, cancelled at {at_cancel}"
+    );
+    assert!(settled.x < 20.0);
+    // Relative motions go on from the hold point.
+    run(a, "FlyByY", &[1.0]).await.unwrap();
+    let p = v.snapshot().position;
+    assert!(
+        (p.y - 1.0).abs() < 0.4 && (p.x - settled.x).abs() < 0.5,
+        "{p}"
+    );
+}
+
+#[tokio::test]
+async fn a_copter_that_disarmed_itself_while_idle_is_armed_again_for_takeoff() {
+    // ArduPilot's DISARM_DELAY of 10 s, at ten times real time.
+    let r = rig(|v| v.idle_disarm_after = 10.0, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    vehicle_until(v, "auto disarm", |s| !s.armed).await;
+    run(a, "Takeoff", &[1.5]).await.unwrap();
+    assert!(v.snapshot().armed && !v.snapshot().on_ground);
+    assert!(notes(&r.log)
+        .iter()
+        .any(|n| n.starts_with("the autopilot disarmed itself while idle")));
+}
+
+#[tokio::test]
+async fn takeoff_without_arming_first_is_refused_and_nothing_moves() {
+    let r = rig(|_| {}, |_| {}).await;
+    run(&r.adapter, "PreFlightCheck", &[]).await.unwrap();
+    let e = run(&r.adapter, "Takeoff", &[2.0]).await.unwrap_err();
+    assert_eq!(
+        e,
+        ActionError::Refused {
+            action: "Takeoff".into(),
+            reason: "the motors are not armed; arm before taking off".into()
+        }
+    );
+    assert!(r.vehicle.snapshot().on_ground);
+}
+
+#[tokio::test]
+async fn disarming_in_the_air_is_refused_before_anything_is_sent() {
+    let r = rig(|_| {}, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    let e = run(a, "Disarm", &[]).await.unwrap_err();
+    assert_eq!(e.kind(), "refused");
+    assert!(e.to_string().contains("land before disarming"), "{e}");
+    assert!(v.snapshot().armed);
+    // Motions on the ground are refused too.
+    run(a, "Land", &[]).await.unwrap();
+    let e = run(a, "FlyByX", &[1.0]).await.unwrap_err();
+    assert!(
+        e.to_string().contains("on the ground; take off first"),
+        "{e}"
+    );
+}
+
+#[tokio::test]
+async fn camera_actions_are_acknowledged_commands() {
+    let r = rig(|_| {}, |_| {}).await;
+    run(&r.adapter, "TurnOn", &[]).await.unwrap();
+    run(&r.adapter, "TurnOnCamera", &[]).await.unwrap();
+    run(&r.adapter, "AdjustCamera", &[]).await.unwrap();
+    run(&r.adapter, "TakePhoto", &[]).await.unwrap();
+    run(&r.adapter, "TakePhoto", &[]).await.unwrap();
+    vehicle_until(&r.vehicle, "two photos", |s| s.photos == 2).await;
+    run(&r.adapter, "Calibrate", &[]).await.unwrap();
+}
+
+#[tokio::test]
+async fn a_fleet_origin_puts_the_home_where_the_gps_says() {
+    let r = rig(
+        |_| {},
+        |a| {
+            let home = SimVehicleOptions::default().home;
+            a.fleet_origin = Some(home.offset(Ned::new(-10.0, 4.0, 0.0)));
+        },
+    )
+    .await;
+    run(&r.adapter, "PreFlightCheck", &[]).await.unwrap();
+    let home = r.adapter.telemetry().borrow().home;
+    assert!(near(home, Vec3::new(10.0, -4.0, 0.0), 0.01), "{home}");
+}
+
+#[tokio::test]
+async fn the_adapter_flies_over_tcp_to_a_listening_vehicle() {
+    let port = {
+        let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap().port()
+    };
+    let v = SimVehicle::start(SimVehicleOptions {
+        connect: ConnectAddress::TcpIn(format!("127.0.0.1:{port}")),
+        ready_after: 1.0,
+        speed: 10.0,
+        ..SimVehicleOptions::default()
+    })
+    .await
+    .unwrap();
+    // The listener may need a moment to be up: connect with retries.
+    let a = timeout(BOUND, async {
+        loop {
+            match MavlinkAdapter::connect(
+                "Drone2",
+                &format!("tcpout:127.0.0.1:{port}"),
+                MavlinkOptions::default(),
+            )
+            .await
+            {
+                Ok(a) => return a,
+                Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+            }
+        }
+    })
+    .await
+    .unwrap();
+    run(&a, "Arm", &[]).await.unwrap();
+    run(&a, "Takeoff", &[1.0]).await.unwrap();
+    assert!((v.snapshot().position.z - 1.0).abs() < 0.3);
+    run(&a, "Land", &[]).await.unwrap();
+}
+
+#[tokio::test]
+async fn a_px4_vehicle_is_refused_with_what_is_missing_rather_than_flown_half_right() {
+    let gcs = MavlinkAdapter::connect("Drone1", "udpin:127.0.0.1:0", MavlinkOptions::default())
+        .await
+        .unwrap();
+    let port = gcs.local_addr().unwrap().port();
+    let px4 = Link::open(
+        &ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
+        MavHeader {
+            system_id: 1,
+            component_id: 1,
+            sequence: 0,
+        },
+    )
+    .await
+    .unwrap();
+    let beat = tokio::spawn(async move {
+        loop {
+            let _ = px4
+                .send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                    custom_mode: 3 << 16,
+                    mavtype: MavType::MAV_TYPE_QUADROTOR,
+                    autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
+                    base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                    system_status: MavState::MAV_STATE_STANDBY,
+                    mavlink_version: 3,
+                }))
+                .await;
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+    });
+    let e = run(&gcs, "Takeoff", &[2.0]).await.unwrap_err();
+    assert_eq!(e.kind(), "refused");
+    assert!(e.to_string().contains("runs PX4"), "{e}");
+    assert_eq!(gcs.telemetry().borrow().mode, FlightMode::Standby);
+    beat.abort();
+}

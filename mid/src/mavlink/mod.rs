@@ -1,0 +1,43 @@
+//! Flying MAVLink autopilots (ArduPilot first, PX4 mapped): the adapter the
+//! executor drives, and a MAVLink vehicle built on the simulator for tests.
+//!
+//! The pieces are kept apart so that each can be tested on its own:
+//!
+//! - [`address`]: connection strings as MAVLink tools spell them
+//!   (`udpin:`, `udpout:`, `tcpout:`, serial devices).
+//! - [`link`]: one MAVLink 2 connection with a receive task that skips
+//!   whatever is not MAVLink, shared by every task that sends or listens.
+//! - [`command`]: `COMMAND_LONG` with its `COMMAND_ACK`, retried on silence,
+//!   a refusal turned into a typed [`command::CommandError`].
+//! - [`modes`]: the autopilots' custom flight modes (ArduCopter, PX4) and
+//!   how they map onto the middle layer's [`crate::FlightMode`].
+//! - [`frame`]: the mission frame (X north, Y east, Z up) against MAVLink's
+//!   local NED frame, and geodetic offsets.
+//! - [`readiness`]: what an autopilot must report before it may be armed.
+//! - [`state`]: the vehicle as the ground station sees it, folded from
+//!   incoming messages.
+//! - [`adapter`]: [`MavlinkAdapter`], the [`crate::Adapter`] over all of it.
+//! - [`vehicle`]: [`SimVehicle`], the simulator's kinematics behind a
+//!   MAVLink endpoint that behaves like an ArduPilot copter.
+
+pub mod adapter;
+pub mod address;
+pub mod command;
+pub mod frame;
+pub mod link;
+pub mod modes;
+pub mod readiness;
+pub mod state;
+pub mod vehicle;
+
+#[cfg(test)]
+mod flight_tests;
+
+pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions};
+pub use address::ConnectAddress;
+pub use command::CommandError;
+pub use readiness::{Missing, NotReady, Readiness};
+pub use vehicle::{SimVehicle, SimVehicleOptions};
+
+/// The dialect every connection speaks: ardupilotmega includes common.
+pub use mavlink::dialects::ardupilotmega as dialect;
