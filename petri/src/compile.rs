@@ -780,7 +780,7 @@ impl Compiler<'_> {
         }
         let do_exit = self.transition(format!("exit {label}"), TransitionKind::Join, w, span, None);
         for (d, r) in &region.remote {
-            let at = self.net.owner_name(*d).to_string();
+            let at = crate::export::owner_label(&self.net, *d);
             let close = self.place_at(
                 format!("close {label} at {at}"),
                 PlaceKind::Control,
@@ -815,7 +815,7 @@ impl Compiler<'_> {
 
     fn signal(&mut self, event: &str, span: Span, entry: NodeId) -> NodeId {
         let owner = self.observable_owner(Owner::Unassigned);
-        let label = format!("Signal {event:?}");
+        let label = format!("Signal({event:?})");
         let t = self.transition(label.clone(), TransitionKind::Signal, owner, span, None);
         self.net.arc(entry, t, ColourOp::Keep);
         let exit = self.control(format!("after {label}"), span);
@@ -828,7 +828,7 @@ impl Compiler<'_> {
 
     fn await_(&mut self, event: &str, span: Span, entry: NodeId) -> NodeId {
         let owner = self.observable_owner(Owner::Unassigned);
-        let label = format!("Await {event:?}");
+        let label = format!("Await({event:?})");
         let happened = self.place_at(
             format!("event {event:?}"),
             PlaceKind::Event(event.to_string()),
@@ -875,7 +875,7 @@ impl Compiler<'_> {
         }
         let (id, depth, span, do_start, interrupt) =
             (r.id, r.depth, r.span, r.do_start, r.interrupt);
-        let at = self.net.owner_name(owner).to_string();
+        let at = crate::export::owner_label(&self.net, owner);
         let region = format!("Do#{id} at {at}");
         let live = self.place_at(
             format!("live {region}"),

@@ -409,10 +409,10 @@ fn an_await_never_fires_before_its_signal() {
     let net = signal_await_mission();
     for seed in 0..SEEDS {
         let run = run_to_final(&net, seed);
-        let sig = pos(&net, &run, "Signal \"ready\"");
+        let sig = pos(&net, &run, "Signal(\"ready\")");
         assert!(pos(&net, &run, "end D1.FlyByX(1 m)") < sig);
-        assert!(sig < pos(&net, &run, "Await \"ready\""));
-        assert!(pos(&net, &run, "Await \"ready\"") < pos(&net, &run, "D2.FlyByX(3 m)"));
+        assert!(sig < pos(&net, &run, "Await(\"ready\")"));
+        assert!(pos(&net, &run, "Await(\"ready\")") < pos(&net, &run, "D2.FlyByX(3 m)"));
     }
     assert_sliceable(&net);
 }
@@ -446,12 +446,12 @@ fn several_signals_and_awaits_of_one_event_stay_one_safe() {
     let mut first = BTreeSet::new();
     for seed in 0..SEEDS {
         let run = run_to_final(&net, seed);
-        let signals: Vec<usize> = transitions(&net, "Signal \"e\"")
+        let signals: Vec<usize> = transitions(&net, "Signal(\"e\")")
             .into_iter()
             .filter_map(|t| run.position(t))
             .collect();
         let earliest = *signals.iter().min().unwrap();
-        for a in transitions(&net, "Await \"e\"") {
+        for a in transitions(&net, "Await(\"e\")") {
             assert!(run.position(a).unwrap() > earliest);
         }
         first.insert(started(&net, &run)[0].clone());
@@ -766,7 +766,7 @@ fn steps_without_a_drone_inside_a_region_take_the_owner_of_its_condition() {
     }
     let outside = net
         .transitions()
-        .filter(|(_, t)| t.label == "Await \"s\"")
+        .filter(|(_, t)| t.label == "Await(\"s\")")
         .map(|(_, t)| t.owner)
         .collect::<Vec<_>>();
     assert_eq!(outside, vec![Owner::Unassigned]);

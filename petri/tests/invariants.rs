@@ -39,8 +39,8 @@ fn leaf() -> impl Strategy<Value = Stmt> {
 /// events (which the explicit tests cover: a random mission would mostly
 /// await signals that never come).
 fn stmt() -> impl Strategy<Value = Stmt> {
-    leaf().prop_recursive(4, 24, 4, |inner| {
-        let body = prop::collection::vec(inner.clone(), 0..4);
+    leaf().prop_recursive(4, 48, 5, |inner| {
+        let body = prop::collection::vec(inner.clone(), 0..5);
         prop_oneof![
             body.clone().prop_map(|s| block(seq(s))),
             body.clone().prop_map(|s| block(par(s))),
@@ -59,11 +59,11 @@ fn stmt() -> impl Strategy<Value = Stmt> {
 }
 
 fn mission_root() -> impl Strategy<Value = Block> {
-    prop::collection::vec(stmt(), 0..4).prop_map(seq)
+    prop::collection::vec(stmt(), 1..5).prop_map(seq)
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 96, .. ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 128, .. ProptestConfig::default() })]
 
     #[test]
     fn every_compiled_net_can_be_sliced_and_ends_in_its_final_marking(root in mission_root()) {
@@ -176,7 +176,7 @@ fn nested_regions_with_events_are_one_safe_in_every_interleaving() {
                 let waiting = m
                     .places()
                     .filter_map(|p| net.consumers(p).next())
-                    .any(|(t, _)| net.transition(t).unwrap().label == "Await \"a\"");
+                    .any(|(t, _)| net.transition(t).unwrap().label == "Await(\"a\")");
                 assert!(waiting, "only the await of a skipped signal may be stuck");
             }
         }

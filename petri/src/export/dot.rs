@@ -19,7 +19,10 @@ pub fn to_dot(net: &Net) -> String {
         w,
         "  node [fontname=\"Helvetica\", fontsize=10, style=filled];"
     );
-    let _ = writeln!(w, "  edge [arrowsize=0.7];");
+    let _ = writeln!(
+        w,
+        "  edge [arrowsize=0.7, fontname=\"Helvetica\", fontsize=9];"
+    );
     let marked: BTreeSet<_> = net.initial_marking.iter().copied().collect();
     let mut owners = BTreeSet::new();
     for n in net.graph.node_indices() {

@@ -268,3 +268,157 @@ pub fn assert_sliceable(net: &Net) {
             .collect::<Vec<_>>()
     );
 }
+
+/// The five missions of the paper, by file stem.
+pub const PAPER: &[&str] = &[
+    "listing01_demo",
+    "experiment_a",
+    "experiment_b",
+    "experiment_c",
+    "experiment_d",
+];
+
+/// A paper mission through the real front end, with its source file.
+pub fn paper(stem: &str) -> (eamos_lang::SourceFile, Net) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/missions/paper");
+    let path = dir.join(format!("{stem}.go"));
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
+    let file = eamos_lang::SourceFile::new(format!("{stem}.go"), text);
+    let compiled = eamos_lang::compile(&file, &profiles()).unwrap_or_else(|d| {
+        panic!(
+            "{stem} does not compile: {}",
+            eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN)
+        )
+    });
+    let net = eamos_petri::compile(&compiled.mission, &profiles());
+    (file, net)
+}
+
+/// An XML element, read with quick-xml: enough of a tree to check exports.
+#[derive(Debug, Default, Clone)]
+pub struct Element {
+    pub name: String,
+    pub attrs: Vec<(String, String)>,
+    pub text: String,
+    pub children: Vec<Element>,
+}
+
+impl Element {
+    pub fn attr(&self, name: &str) -> Option<&str> {
+        self.attrs
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// Every element below this one (not itself), depth first.
+    pub fn descendants(&self) -> Vec<&Element> {
+        let mut out = Vec::new();
+        for c in &self.children {
+            out.push(c);
+            out.extend(c.descendants());
+        }
+        out
+    }
+
+    pub fn child(&self, name: &str) -> Option<&Element> {
+        self.children.iter().find(|c| c.name == name)
+    }
+
+    pub fn children_named<'a>(&'a self, name: &'a str) -> impl Iterator<Item = &'a Element> + 'a {
+        self.children.iter().filter(move |c| c.name == name)
+    }
+}
+
+/// Parses a whole XML document; any malformation is a test failure.
+pub fn parse_xml(text: &str) -> Element {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(text);
+    let mut stack = vec![Element::default()];
+    let element = |e: &quick_xml::events::BytesStart| Element {
+        name: String::from_utf8(e.local_name().as_ref().to_vec()).unwrap(),
+        attrs: e
+            .attributes()
+            .map(|a| {
+                let a = a.expect("well-formed attribute");
+                (
+                    String::from_utf8(a.key.as_ref().to_vec()).unwrap(),
+                    a.unescape_value().expect("attribute value").into_owned(),
+                )
+            })
+            .collect(),
+        ..Element::default()
+    };
+    loop {
+        match reader.read_event().expect("well-formed XML") {
+            Event::Start(e) => stack.push(element(&e)),
+            Event::Empty(e) => {
+                let el = element(&e);
+                stack.last_mut().unwrap().children.push(el);
+            }
+            Event::End(_) => {
+                let el = stack.pop().unwrap();
+                stack.last_mut().expect("balanced tags").children.push(el);
+            }
+            Event::Text(t) => stack
+                .last_mut()
+                .unwrap()
+                .text
+                .push_str(&t.decode().unwrap()),
+            Event::GeneralRef(r) => {
+                let c = match r.resolve_char_ref().expect("character reference") {
+                    Some(c) => c,
+                    None => match &*r.decode().unwrap() {
+                        "lt" => '<',
+                        "gt" => '>',
+                        "amp" => '&',
+                        "quot" => '"',
+                        "apos" => '\'',
+                        other => panic!("unknown entity {other}"),
+                    },
+                };
+                stack.last_mut().unwrap().text.push(c);
+            }
+            Event::Eof => break,
+            _ => {}
+        }
+    }
+    assert_eq!(stack.len(), 1, "unclosed elements");
+    let mut root = stack.pop().unwrap();
+    assert_eq!(root.children.len(), 1, "one root element");
+    root.children.pop().unwrap()
+}
+
+/// A mission with every kind of node the exports must carry: loops with
+/// colours, a region with remote owners, events, a timed pause, and names
+/// that need escaping.
+pub fn showcase() -> Net {
+    use eamos_lang::hir::CondMode;
+    let mut m = mission(
+        &["D<1>", "D&2"],
+        seq(vec![block(par(vec![
+            do_(
+                CondMode::Until,
+                x_above(1, 5.0),
+                seq(vec![
+                    fly(0, 1.0),
+                    signal("go \"now\" <&>\u{1}"),
+                    repeat_for(2, seq(vec![fly(0, 2.0)])),
+                    pause_for(1.5),
+                ]),
+            ),
+            block(seq(vec![
+                await_("go \"now\" <&>\u{1}"),
+                repeat(
+                    CondMode::While,
+                    x_above(1, 0.0),
+                    seq(vec![fly(1, 3.0)]),
+                    None,
+                ),
+            ])),
+        ]))]),
+    );
+    m.name = "Show<case> & \"more\"".into();
+    eamos_petri::compile(&m, &profiles())
+}
