@@ -703,6 +703,7 @@ fn nested_regions_skip_their_steps_when_either_is_interrupted() {
         ]),
     );
     assert_sliceable(&net);
+    assert_consumers_agree(&net);
     let inner_start = transition(&net, "D1.FlyByX(2 m)");
     assert_eq!(
         net.read_set(inner_start).count(),

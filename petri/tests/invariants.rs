@@ -70,6 +70,7 @@ proptest! {
         let net = compile(&["D1", "D2", "D3"], root);
         let v = net.ownership_violations();
         prop_assert!(v.is_empty(), "ownership violations: {v:?}");
+        assert_consumers_agree(&net);
         for seed in 0..6 {
             let run = game::run_random(&net, seed, oracle::random(seed, 0.5), 200_000);
             prop_assert_eq!(&run.outcome, &Outcome::Final, "seed {}: {:?}", seed, run.ids(&net));

@@ -39,6 +39,7 @@ fn every_paper_mission_compiles_into_a_net_that_can_be_sliced() {
     for stem in PAPER {
         let (_, net) = paper(stem);
         assert_sliceable(&net);
+        assert_consumers_agree(&net);
         assert_eq!(net.id(net.final_place), "final");
         let s = stats(&net);
         assert_eq!(s.total.places, net.places().count());

@@ -422,3 +422,20 @@ pub fn showcase() -> Net {
     m.name = "Show<case> & \"more\"".into();
     eamos_petri::compile(&m, &profiles())
 }
+
+/// Stronger than [`assert_sliceable`]: the transitions that consume or read
+/// a place all have the same owner, assigned or not, so the slicer never
+/// has to pull an unassigned transition onto a drone because of a place.
+pub fn assert_consumers_agree(net: &Net) {
+    for (p, place) in net.places() {
+        let mut owners: Vec<_> = net.consumers(p).map(|(t, _)| net.owner(t)).collect();
+        owners.sort();
+        owners.dedup();
+        assert!(owners.len() <= 1, "place {:?} has consumers of {owners:?}", place.label);
+        if let [o] = owners[..] {
+            if p != net.initial_place {
+                assert_eq!(place.owner, o, "place {:?}", place.label);
+            }
+        }
+    }
+}
