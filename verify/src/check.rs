@@ -82,6 +82,8 @@ pub(crate) struct Subject {
     pub conditions: Option<(Vec<Finding>, usize)>,
     /// Loop-back transitions (for the termination note).
     pub loops: Vec<u32>,
+    /// Waits on a condition (for the termination note).
+    pub waits: Vec<u32>,
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
@@ -94,6 +96,7 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         starts,
         conditions,
         loops,
+        waits,
     } = subject;
     let final_consumed = pt
         .final_place
@@ -116,6 +119,7 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         running,
         starts,
         loops,
+        waits,
         findings: Vec::new(),
         properties: Vec::new(),
     };
@@ -169,6 +173,7 @@ struct Ctx {
     running: HashMap<u32, ActionInfo>,
     starts: Vec<(u32, ActionInfo)>,
     loops: Vec<u32>,
+    waits: Vec<u32>,
     findings: Vec<Finding>,
     properties: Vec<PropertyResult>,
 }
@@ -687,18 +692,20 @@ impl Ctx {
                 );
             }
         } else {
-            let mut loops: Vec<Span> = self
-                .loops
-                .iter()
-                .filter(|&&t| ex.fired[t as usize])
-                .filter_map(|&t| net.steps[t as usize].span)
-                .collect();
-            loops.sort_by_key(|s| (s.start, s.end));
-            loops.dedup();
-            if !loops.is_empty() {
+            let reached = |ts: &[u32]| {
+                let mut spans: Vec<Span> = ts
+                    .iter()
+                    .filter(|&&t| ex.fired[t as usize])
+                    .filter_map(|&t| net.steps[t as usize].span)
+                    .collect();
+                spans.sort_by_key(|s| (s.start, s.end));
+                spans.dedup();
+                spans.len()
+            };
+            let (loops, waits) = (reached(&self.loops), reached(&self.waits));
+            if loops + waits > 0 {
                 r.notes.push(format!(
-                    "the end is always reachable, but {} loop(s) can repeat for as long as their conditions let them: the mission ends only if the conditions do change",
-                    loops.len()
+                    "the end is always reachable, but only if the conditions change: {loops} loop(s) can repeat for as long as their conditions hold and {waits} wait(s) last until theirs do"
                 ));
             }
         }

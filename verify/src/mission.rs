@@ -282,6 +282,7 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
     let mut raw = Vec::new();
     let mut starts = Vec::new();
     let mut loops = Vec::new();
+    let mut waits = Vec::new();
     for (n, t) in net.transitions() {
         if removed[n.index()] {
             continue;
@@ -379,6 +380,7 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
                 {
                     loops.push(ti)
                 }
+                TransitionKind::Pause if info.guard.is_some() => waits.push(ti),
                 _ => {}
             }
             steps.push(info.clone());
@@ -423,6 +425,7 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
         starts,
         conditions: Some((cond_findings, checked)),
         loops,
+        waits,
     }
 }
 

@@ -567,5 +567,6 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
         starts: Vec::new(),
         conditions: None,
         loops: Vec::new(),
+        waits: Vec::new(),
     }
 }

@@ -1,0 +1,132 @@
+//! `eamos check FILE`: prove a mission safe to start before anything flies.
+//!
+//! A `.go` file is compiled (front end, then net compiler) and its net
+//! checked against the built-in profiles; a `.pnml` file is read as a plain
+//! P/T net, so the checker can be compared with other Petri net tools.
+//! Exit status: 0 nothing found, 1 findings, 2 bad input.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use eamos_lang::{SourceFile, Style};
+use eamos_verify::{Options, Report};
+use serde_json::json;
+
+/// Prove a mission (or a PNML net) free of deadlocks, endless waits, drone
+/// conflicts and dead code, before anything flies.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission (`.go`) or a P/T net (`.pnml`).
+    pub file: PathBuf,
+    /// Print the report as JSON (schema `eamos-check/1`) on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Stop exploring past this many megabytes, with partial verdicts.
+    #[arg(long, value_name = "MB", default_value_t = 4096)]
+    pub max_memory: u64,
+    /// Explore every interleaving instead of using stubborn sets (slower;
+    /// for comparison with other tools).
+    #[arg(long)]
+    pub no_reduction: bool,
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let name = args.file.display().to_string();
+    let text = match std::fs::read_to_string(&args.file) {
+        Ok(t) => t,
+        Err(e) => {
+            return bad_input(
+                &args,
+                json!({"file": name, "message": format!("cannot read the file: {e}")}),
+                &format!("error: cannot read {name}: {e}"),
+            )
+        }
+    };
+    let options = Options {
+        reduction: !args.no_reduction,
+        max_memory_mb: args.max_memory,
+        progress: if args.json {
+            None
+        } else {
+            eamos_verify::terminal_progress()
+        },
+    };
+    let source = SourceFile::new(name.clone(), text);
+    let report = if is_pnml(&args.file, &source.text) {
+        match eamos_verify::pnml::parse(&name, &source.text) {
+            Ok(net) => eamos_verify::check_pnml(&net, &options),
+            Err(e) => {
+                return bad_input(
+                    &args,
+                    json!({"file": e.file, "line": e.line, "col": e.col, "message": e.message}),
+                    &format!("error: {e}"),
+                )
+            }
+        }
+    } else {
+        let profiles = eamos_mid::profiles::builtin();
+        let style = Style {
+            width: 100,
+            colour: !args.json && std::io::stderr().is_terminal(),
+        };
+        match eamos_lang::compile(&source, &profiles) {
+            Ok(compiled) => {
+                if !compiled.warnings.is_empty() && !args.json {
+                    eprint!(
+                        "{}",
+                        eamos_lang::render_all(&compiled.warnings, &source, style)
+                    );
+                }
+                let net = eamos_petri::compile(&compiled.mission, &profiles);
+                eamos_verify::check_net(&net, &profiles, Some(&source.text), &options)
+            }
+            Err(diags) => {
+                let records: Vec<_> = diags.iter().map(|d| d.record(&source)).collect();
+                return bad_input(
+                    &args,
+                    json!({"file": name, "message": "the mission does not compile", "diagnostics": records}),
+                    eamos_lang::render_all(&diags, &source, style).trim_end(),
+                );
+            }
+        }
+    };
+    print_report(&args, &report, &source);
+    if report.found_something() {
+        ExitCode::from(1)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn is_pnml(path: &Path, text: &str) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pnml") || e.eq_ignore_ascii_case("xml"))
+        || text.trim_start().starts_with("<?xml")
+}
+
+fn print_report(args: &Args, report: &Report, source: &SourceFile) {
+    if args.json {
+        let j = report.to_json(source);
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&j).unwrap_or_else(|_| j.to_string())
+        );
+    } else {
+        let colour = std::io::stdout().is_terminal() && std::env::var_os("NO_COLOR").is_none();
+        print!("{}", report.render(source, colour));
+    }
+}
+
+/// Bad input: an error on standard error (and, with `--json`, an error
+/// object on standard output), exit status 2.
+fn bad_input(args: &Args, error: serde_json::Value, text: &str) -> ExitCode {
+    if args.json {
+        println!(
+            "{}",
+            json!({"schema": "eamos-check/1", "file": args.file.display().to_string(), "error": error})
+        );
+    }
+    eprintln!("{text}");
+    ExitCode::from(2)
+}

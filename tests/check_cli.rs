@@ -1,0 +1,175 @@
+//! `eamos check` from the command line: verdicts, exit statuses and the two
+//! output forms.
+
+use std::path::PathBuf;
+
+use assert_cmd::Command;
+use predicates::prelude::*;
+
+fn paper(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/missions/paper")
+        .join(name)
+}
+
+fn fixture(path: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(path)
+}
+
+fn eamos() -> Command {
+    Command::cargo_bin("eamos").unwrap()
+}
+
+fn write(dir: &tempfile::TempDir, name: &str, text: &str) -> PathBuf {
+    let p = dir.path().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+const LOST_SIGNAL: &str = r#"package Lost
+
+var D1 Quadcopter
+var D2 Quadcopter
+
+func PAR_Main() {
+	SEQ_A()
+	SEQ_B()
+}
+
+func SEQ_A() {
+	If(D1.Battery() > 50, SEQ_Go)
+	D1.Land()
+}
+
+func SEQ_Go() {
+	Signal("go")
+}
+
+func SEQ_B() {
+	Await("go")
+	D2.Takeoff(1)
+}
+"#;
+
+#[test]
+fn check_of_a_clean_paper_mission_exits_0_and_says_every_property_holds() {
+    eamos()
+        .arg("check")
+        .arg(paper("experiment_a.go"))
+        .assert()
+        .code(0)
+        .stdout(predicate::str::contains("deadlock"))
+        .stdout(predicate::str::contains("nothing found"))
+        .stdout(predicate::str::contains("violated").not());
+}
+
+#[test]
+fn check_of_a_mission_that_can_get_stuck_exits_1_and_points_at_the_await() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = write(&dir, "lost.go", LOST_SIGNAL);
+    eamos()
+        .arg("check")
+        .arg(&m)
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("lost.go:21:2"))
+        .stdout(predicate::str::contains("Await(\"go\")"))
+        .stdout(predicate::str::contains("does not hold"));
+}
+
+#[test]
+fn check_json_gives_verdicts_findings_and_steps_for_tools() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = write(&dir, "lost.go", LOST_SIGNAL);
+    let out = eamos()
+        .args(["check", "--json"])
+        .arg(&m)
+        .assert()
+        .code(1)
+        .get_output()
+        .stdout
+        .clone();
+    let j: serde_json::Value = serde_json::from_slice(&out).expect("valid JSON");
+    assert_eq!(j["schema"], "eamos-check/1");
+    assert_eq!(j["found"], true);
+    let deadlock = j["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|f| f["kind"] == "deadlock")
+        .expect("a deadlock finding");
+    assert!(deadlock["spans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|s| s["line"] == 21 && s["col"] == 2));
+    assert!(!deadlock["counterexample"]["steps"]
+        .as_array()
+        .unwrap()
+        .is_empty());
+}
+
+#[test]
+fn check_of_a_mission_with_front_end_errors_prints_them_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = write(
+        &dir,
+        "typo.go",
+        "package Typo\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.FlyByZZ(1)\n}\n",
+    );
+    eamos()
+        .arg("check")
+        .arg(&m)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("typo.go:6:"));
+}
+
+#[test]
+fn check_of_a_file_that_cannot_be_read_exits_2() {
+    eamos()
+        .args(["check", "no/such/mission.go"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("cannot read"));
+}
+
+#[test]
+fn check_of_a_malformed_pnml_file_names_line_and_column_and_exits_2() {
+    eamos()
+        .arg("check")
+        .arg(fixture("verify/tests/pnml/malformed_arc.pnml"))
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("malformed_arc.pnml:6:5"));
+}
+
+#[test]
+fn check_of_a_pnml_net_reports_its_deadlock_and_exits_1() {
+    eamos()
+        .arg("check")
+        .arg(fixture("verify/tests/pnml/philosophers_deadlock.pnml"))
+        .assert()
+        .code(1)
+        .stdout(predicate::str::contains("dead marking"));
+    eamos()
+        .arg("check")
+        .arg(fixture("verify/tests/pnml/mutex_no_deadlock.pnml"))
+        .assert()
+        .code(0);
+}
+
+#[test]
+fn check_json_of_bad_input_is_an_error_object() {
+    let out = eamos()
+        .args(["check", "--json"])
+        .arg(fixture("verify/tests/pnml/malformed_arc.pnml"))
+        .assert()
+        .code(2)
+        .get_output()
+        .stdout
+        .clone();
+    let j: serde_json::Value = serde_json::from_slice(&out).unwrap();
+    assert_eq!(j["error"]["line"], 6);
+    assert_eq!(j["error"]["col"], 5);
+}
