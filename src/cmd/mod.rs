@@ -2,3 +2,4 @@
 //! 0 success, 1 findings (where a command has findings), 2 bad input.
 
 pub mod build;
+pub mod check;
