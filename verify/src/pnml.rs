@@ -7,7 +7,8 @@
 //! `test`/`read` (as written by TAPAAL and others), and eamos' own
 //! `toolspecific tool="eamos"` data: a place carrying `<final/>` (or a place
 //! with id `final`) marks the end of the run; an arc carrying `<read/>` is a
-//! read arc. Inhibitor, reset and transport arcs are refused with their
+//! read arc, and its `<readReturn/>` partner (the self-loop plain P/T
+//! readers see) is dropped, as is the `final-loop` transition. Inhibitor, reset and transport arcs are refused with their
 //! position rather than silently misread. Only the first `net` of a file is
 //! read.
 
@@ -72,6 +73,8 @@ pub struct PnmlNet {
     pub places: Vec<PnmlPlace>,
     pub transitions: Vec<PnmlTransition>,
     pub arcs: Vec<PnmlArc>,
+    /// Ids of transitions left out (eamos' `final-loop`); their arcs go too.
+    pub skipped: Vec<String>,
 }
 
 #[derive(Default)]
@@ -86,6 +89,11 @@ struct Open {
     target: String,
     tool_eamos_final: bool,
     tool_eamos_read: bool,
+    /// The return half of a read arc as eamos exports it (a self-loop for
+    /// plain P/T readers): dropped, the read arc says it all.
+    tool_eamos_read_return: bool,
+    /// `<kind>` of a transition in eamos' data.
+    tool_eamos_kind: String,
     start: usize,
     end: usize,
 }
@@ -172,6 +180,7 @@ pub fn parse(file: &str, text: &str) -> Result<PnmlNet, PnmlError> {
                                 places: Vec::new(),
                                 transitions: Vec::new(),
                                 arcs: Vec::new(),
+                                skipped: Vec::new(),
                             });
                         }
                     }
@@ -233,6 +242,9 @@ pub fn parse(file: &str, text: &str) -> Result<PnmlNet, PnmlError> {
                     "read" if in_eamos_tool && open.kind == Elem::Arc => {
                         open.tool_eamos_read = true;
                     }
+                    "readReturn" if in_eamos_tool && open.kind == Elem::Arc => {
+                        open.tool_eamos_read_return = true;
+                    }
                     _ => {}
                 }
                 if !empty {
@@ -292,6 +304,12 @@ pub fn parse(file: &str, text: &str) -> Result<PnmlNet, PnmlError> {
                         n.name = text_buf.trim().to_string();
                     }
                 }
+                if name == "kind"
+                    && open.kind == Elem::Transition
+                    && path.iter().any(|p| p == "toolspecific#eamos")
+                {
+                    open.tool_eamos_kind = text_buf.trim().to_string();
+                }
                 let closes_open = matches!(
                     (name.as_str(), open.kind),
                     ("place", Elem::Place) | ("transition", Elem::Transition) | ("arc", Elem::Arc)
@@ -339,6 +357,10 @@ pub fn parse(file: &str, text: &str) -> Result<PnmlNet, PnmlError> {
         }
         cur
     };
+    let skipped = std::mem::take(&mut net.skipped);
+    net.arcs
+        .retain(|a| !skipped.contains(&a.source) && !skipped.contains(&a.target));
+    net.skipped = skipped;
     let mut kinds: HashMap<&str, Elem> = HashMap::new();
     for p in &net.places {
         if kinds.insert(&p.id, Elem::Place).is_some() {
@@ -436,6 +458,11 @@ fn finish(
                 span,
             });
         }
+        // The self-loop eamos adds on `final` for tools without a notion
+        // of a final marking: this reader has one.
+        Elem::Transition if o.tool_eamos_kind == "final-loop" => {
+            net.skipped.push(o.id);
+        }
         Elem::Transition => net.transitions.push(PnmlTransition {
             name: if o.name.is_empty() {
                 o.id.clone()
@@ -445,6 +472,7 @@ fn finish(
             id: o.id,
             span,
         }),
+        Elem::Arc if o.tool_eamos_read_return => {}
         Elem::Arc => {
             let weight = if o.inscription.is_empty() {
                 1
