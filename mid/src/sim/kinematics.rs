@@ -738,13 +738,43 @@ mod tests {
         panic!("not done after {limit} s: {:?}", m);
     }
 
+    /// Steps until arrival, checking the envelope at every step; returns
+    /// the seconds taken and the top horizontal speed.
+    fn fly_within_limits(m: &mut Multirotor, limit: f64) -> (f64, f64) {
+        let c = m.config().clone();
+        let mut prev = m.air_velocity();
+        let mut top: f64 = 0.0;
+        let mut t = 0.0;
+        while !m.arrived() {
+            assert!(t < limit, "not there after {limit} s: {m:?}");
+            m.step(DT);
+            t += DT;
+            let v = m.air_velocity();
+            let h = v.horizontal_norm();
+            top = top.max(h);
+            assert!(h <= c.max_horizontal_speed + 1e-9, "horizontal speed {h}");
+            assert!(v.z <= c.climb_rate + 1e-9, "climb {}", v.z);
+            assert!(-v.z <= c.descent_rate + 1e-9, "descent {}", v.z);
+            let dv = v - prev;
+            let ah = dv.horizontal_norm() / DT;
+            assert!(ah <= c.max_horizontal_accel + 1e-6, "horizontal accel {ah}");
+            assert!(
+                dv.z.abs() / DT <= c.max_vertical_accel + 1e-6,
+                "vertical accel"
+            );
+            assert!(m.position().z >= 0.0);
+            prev = v;
+        }
+        (t, top)
+    }
+
     #[test]
-    fn a_fly_by_x_of_one_metre_arrives_within_tolerance() {
+    fn a_fly_by_x_of_one_metre_arrives_within_tolerance_inside_the_envelope() {
         let mut m = airborne_at(1.5);
         let start = m.reference();
         let target = start + Vec3::new(1.0, 0.0, 0.0);
         m.go_to(target, FlightMode::Guided).unwrap();
-        let t = run_until(&mut m, 30.0, |m| m.arrived());
+        let (t, _) = fly_within_limits(&mut m, 30.0);
         assert!(m.position().distance(target) <= m.config().arrival_tolerance);
         assert!(m.velocity().norm() <= m.config().arrival_speed);
         // A metre at 2.5 m/s² takes well over a second and well under ten.
@@ -757,32 +787,37 @@ mod tests {
         let c = m.config().clone();
         m.go_to(Vec3::new(40.0, -30.0, 12.0), FlightMode::Guided)
             .unwrap();
-        let mut prev = m.air_velocity();
-        let mut top_speed: f64 = 0.0;
-        for _ in 0..(60.0 / DT) as usize {
-            m.step(DT);
-            let v = m.air_velocity();
-            let h = v.horizontal_norm();
-            top_speed = top_speed.max(h);
-            assert!(h <= c.max_horizontal_speed + 1e-9, "horizontal speed {h}");
-            assert!(v.z <= c.climb_rate + 1e-9, "climb {}", v.z);
-            assert!(-v.z <= c.descent_rate + 1e-9, "descent {}", v.z);
-            let dv = v - prev;
-            assert!(
-                dv.horizontal_norm() / DT <= c.max_horizontal_accel + 1e-6,
-                "horizontal accel {}",
-                dv.horizontal_norm() / DT
-            );
-            assert!(
-                dv.z.abs() / DT <= c.max_vertical_accel + 1e-6,
-                "vertical accel"
-            );
-            assert!(m.position().z >= 0.0);
-            prev = v;
-        }
-        assert!(m.arrived());
+        let (_, top_speed) = fly_within_limits(&mut m, 60.0);
         // It did reach cruise speed on a 50 m leg.
         assert!(top_speed > c.max_horizontal_speed - 0.01);
+        // And comes down again within the descent rate.
+        m.go_to(Vec3::new(40.0, -30.0, 1.0), FlightMode::Guided)
+            .unwrap();
+        fly_within_limits(&mut m, 60.0);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn any_target_in_the_flight_volume_is_reached_inside_the_envelope(
+            start_h in 0.5f64..20.0,
+            x in -60.0f64..60.0,
+            y in -60.0f64..60.0,
+            z in 0.3f64..40.0,
+            stop_after in 0usize..400,
+        ) {
+            let mut m = airborne_at(start_h);
+            // Sometimes redirect mid-flight, to start from any velocity.
+            m.go_to(Vec3::new(-x, y / 2.0, start_h), FlightMode::Guided).unwrap();
+            for _ in 0..stop_after {
+                m.step(DT);
+            }
+            let target = Vec3::new(x, y, z);
+            m.go_to(target, FlightMode::Guided).unwrap();
+            fly_within_limits(&mut m, 120.0);
+            proptest::prop_assert!(m.position().distance(target) <= m.config().arrival_tolerance);
+        }
     }
 
     #[test]
