@@ -10,10 +10,13 @@
 //! - [`log`]: records of the uniform and adapter logs.
 //! - [`sim`]: the built-in simulator ([`SimFleet`], [`SimDrone`]) and its
 //!   multirotor kinematics.
+//! - [`mavlink`]: the MAVLink adapter (ArduPilot, PX4) and a MAVLink
+//!   vehicle on the simulator for tests.
 
 pub mod api;
 pub mod clock;
 pub mod log;
+pub mod mavlink;
 pub mod profiles;
 pub mod sim;
 pub mod uniform;
