@@ -72,10 +72,12 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
     let condition = t.guard.as_ref().and_then(|g| g.condition());
     let guard = condition.map(|(c, negated)| (c.span(), !negated));
     let cond_text = condition.and_then(|(c, _)| snippet(src, c.span()).map(one_line));
-    let label_suffix = if t.label.is_empty() {
-        String::new()
-    } else {
-        format!(" ({})", t.label)
+    // The compiler's labels repeat the condition after a first word that
+    // says which way the step goes (`iterate`, `leave`): keep that word.
+    let label_suffix = match t.label.split_whitespace().next() {
+        Some(w) if cond_text.is_some() => format!(" ({w})"),
+        Some(_) => format!(" ({})", t.label),
+        None => String::new(),
     };
     let (kind, text, internal) = match &t.kind {
         TransitionKind::Init => ("Init", "the mission starts".to_string(), false),
@@ -116,14 +118,20 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
             ),
             false,
         ),
-        TransitionKind::Pause => (
-            "Pause",
-            format!(
-                "{} is over",
-                here.clone().unwrap_or_else(|| "the pause".into())
-            ),
-            false,
-        ),
+        TransitionKind::Pause => {
+            let text = match (&cond_text, guard) {
+                (Some(c), Some((_, held))) => format!(
+                    "{}: `{c}` {}: the wait is over",
+                    if what.is_empty() { "wait" } else { what },
+                    if held { "holds" } else { "does not hold" }
+                ),
+                _ => format!(
+                    "{} is over",
+                    here.clone().unwrap_or_else(|| "the pause".into())
+                ),
+            };
+            ("Pause", text, false)
+        }
         TransitionKind::Signal => (
             "Signal",
             here.clone().unwrap_or_else(|| t.label.clone()),
