@@ -14,8 +14,9 @@ use serde_json::json;
 
 /// Compile a mission and print a summary of it: drones and their types, the
 /// number of action instances (per drone), block instances (SEQ / PAR),
-/// control structures by kind and events. Errors are reported with file,
-/// line and column; the exit status is 2 if there are any.
+/// control structures by kind and events, then the size of its Petri net
+/// per drone. Errors are reported with file, line and column; the exit
+/// status is 2 if there are any.
 #[derive(clap::Args)]
 pub struct Args {
     /// The mission file (a subset of Go).
@@ -24,6 +25,43 @@ pub struct Args {
     /// as JSON on standard output.
     #[arg(long)]
     pub json: bool,
+    /// Write the mission's Petri net into DIR as `net.pnml` (PNML P/T net),
+    /// `net.dot` (Graphviz) and `net.graphml`.
+    #[arg(short = 'o', long = "out", value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// In `net.pnml`, add a transition `final_loop` on the place `final`, so
+    /// that model checkers tell proper termination from a deadlock.
+    #[arg(long)]
+    pub pnml_final_loop: bool,
+}
+
+/// Writes the net's exports into `dir` (created if needed); the paths
+/// written, or a message naming the path that failed.
+fn write_net(
+    net: &eamos_petri::Net,
+    source: &SourceFile,
+    dir: &std::path::Path,
+    final_loop: bool,
+) -> Result<Vec<PathBuf>, String> {
+    use eamos_petri::export::{dot, graphml, pnml};
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let locate = |s: eamos_lang::Span| source.location(s);
+    let opts = pnml::PnmlOptions {
+        final_loop,
+        locate: Some(&locate),
+    };
+    let files = [
+        ("net.pnml", pnml::to_pnml(net, &opts)),
+        ("net.dot", dot::to_dot(net)),
+        ("net.graphml", graphml::to_graphml(net)),
+    ];
+    let mut written = Vec::new();
+    for (file, text) in files {
+        let path = dir.join(file);
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        written.push(path);
+    }
+    Ok(written)
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -50,6 +88,21 @@ pub fn run(args: Args) -> ExitCode {
     match eamos_lang::compile(&source, &profiles) {
         Ok(compiled) => {
             let summary = compiled.mission.summary();
+            let net = eamos_petri::compile(&compiled.mission, &profiles);
+            let net_stats = eamos_petri::stats::stats(&net);
+            let written = match &args.out {
+                None => Vec::new(),
+                Some(dir) => match write_net(&net, &source, dir, args.pnml_final_loop) {
+                    Ok(w) => w,
+                    Err(message) => {
+                        if args.json {
+                            println!("{}", json!({ "file": source.name, "error": message }));
+                        }
+                        eprintln!("error: {message}");
+                        return ExitCode::from(2);
+                    }
+                },
+            };
             if args.json {
                 let warnings: Vec<_> = compiled
                     .warnings
@@ -58,7 +111,13 @@ pub fn run(args: Args) -> ExitCode {
                     .collect();
                 println!(
                     "{}",
-                    json!({ "file": source.name, "summary": summary, "warnings": warnings })
+                    json!({
+                        "file": source.name,
+                        "summary": summary,
+                        "warnings": warnings,
+                        "net": net_stats,
+                        "written": written,
+                    })
                 );
             } else {
                 if !compiled.warnings.is_empty() {
@@ -68,6 +127,10 @@ pub fn run(args: Args) -> ExitCode {
                     );
                 }
                 print!("{summary}");
+                print!("\n{net_stats}");
+                for path in &written {
+                    println!("wrote {}", path.display());
+                }
             }
             ExitCode::SUCCESS
         }
