@@ -122,7 +122,8 @@ impl Slice {
         if Sha3_256::digest(payload).as_slice() != digest {
             return Err(DecodeError::Checksum);
         }
-        let slice: Slice = postcard::from_bytes(payload).map_err(|e| DecodeError::Binary(e.to_string()))?;
+        let slice: Slice =
+            postcard::from_bytes(payload).map_err(|e| DecodeError::Binary(e.to_string()))?;
         slice.validate()?;
         Ok(slice)
     }

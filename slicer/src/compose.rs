@@ -7,7 +7,9 @@
 
 use std::collections::BTreeMap;
 
-use eamos_petri::net::{Arc, ArcKind, ColourOp, Net, Node, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind};
+use eamos_petri::net::{
+    Arc, ArcKind, ColourOp, Net, Node, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+};
 use petgraph::graph::DiGraph;
 
 use crate::slice::Slice;
@@ -38,7 +40,10 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
     let mut by_name = BTreeMap::new();
     for (i, s) in slices.iter().enumerate() {
         if s.mission_id != first.mission_id {
-            return Err(ComposeError::Mission(first.mission.clone(), s.mission.clone()));
+            return Err(ComposeError::Mission(
+                first.mission.clone(),
+                s.mission.clone(),
+            ));
         }
         if by_name.insert(s.drone.clone(), i).is_some() {
             return Err(ComposeError::Duplicate(s.drone.clone()));
@@ -76,13 +81,21 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
             .collect();
         for (t, st) in transitions.iter().zip(&s.transitions) {
             for &p in &st.consume {
-                graph.add_edge(places[p as usize], *t, arc(ArcKind::Consume, ColourOp::Keep));
+                graph.add_edge(
+                    places[p as usize],
+                    *t,
+                    arc(ArcKind::Consume, ColourOp::Keep),
+                );
             }
             for &p in &st.read {
                 graph.add_edge(places[p as usize], *t, arc(ArcKind::Read, ColourOp::Keep));
             }
             for pr in &st.produce {
-                graph.add_edge(*t, places[pr.place as usize], arc(ArcKind::Produce, pr.colour));
+                graph.add_edge(
+                    *t,
+                    places[pr.place as usize],
+                    arc(ArcKind::Produce, pr.colour),
+                );
             }
         }
         initial_marking.extend(s.initial_marking.iter().map(|&p| places[p as usize]));
@@ -128,14 +141,21 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
                 guard: None,
                 delay: None,
             }));
-            graph.add_edge(trans_at[si][b.transition as usize], channel, arc(ArcKind::Produce, b.colour));
+            graph.add_edge(
+                trans_at[si][b.transition as usize],
+                channel,
+                arc(ArcKind::Produce, b.colour),
+            );
             graph.add_edge(channel, deliver, arc(ArcKind::Consume, ColourOp::Keep));
             graph.add_edge(deliver, inbox, arc(ArcKind::Produce, ColourOp::Keep));
         }
         for b in &s.bridges_in {
-            let sent = by_name
-                .get(&b.from)
-                .is_some_and(|&r| slices[r].bridges_out.iter().any(|o| o.id == b.id && o.to == s.drone));
+            let sent = by_name.get(&b.from).is_some_and(|&r| {
+                slices[r]
+                    .bridges_out
+                    .iter()
+                    .any(|o| o.id == b.id && o.to == s.drone)
+            });
             if !sent {
                 return Err(ComposeError::Unsent {
                     id: b.id,

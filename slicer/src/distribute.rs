@@ -109,7 +109,8 @@ fn max_input_depth(net: &Net, t: NodeId) -> u8 {
 
 /// Rewrites the net so that every bundle becomes one crossing arc.
 fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
-    let mut graph: DiGraph<Node, Arc> = DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
+    let mut graph: DiGraph<Node, Arc> =
+        DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
     for v in net.graph.node_indices() {
         let mut node = net.graph[v].clone();
         match &mut node {
@@ -129,12 +130,17 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
                 to,
                 arcs,
             } => {
-                let t = net.transition(*transition).expect("fan-out from a transition");
+                let t = net
+                    .transition(*transition)
+                    .expect("fan-out from a transition");
                 let targets: Vec<(NodeId, ColourOp)> = arcs
                     .iter()
                     .map(|&e| {
                         skip[e.index()] = true;
-                        (net.graph.edge_endpoints(e).expect("edge").1, net.graph[e].colour)
+                        (
+                            net.graph.edge_endpoints(e).expect("edge").1,
+                            net.graph[e].colour,
+                        )
                     })
                     .collect();
                 let same = targets.iter().all(|&(_, c)| c == targets[0].1);
@@ -378,7 +384,9 @@ fn bridge_order(net: &Net) -> Vec<petgraph::graph::EdgeIndex> {
     let mut arcs: Vec<_> = net
         .graph
         .edge_references()
-        .filter(|e| e.weight().kind == ArcKind::Produce && net.owner(e.source()) != net.owner(e.target()))
+        .filter(|e| {
+            e.weight().kind == ArcKind::Produce && net.owner(e.source()) != net.owner(e.target())
+        })
         .map(|e| (e.source(), e.target(), e.id()))
         .collect();
     arcs.sort();

@@ -21,7 +21,9 @@ pub fn colour_of(slice: &Slice, name: &str) -> &'static str {
 }
 
 fn esc(s: &str) -> String {
-    s.replace('\\', "\\\\").replace('"', "\\\"").replace('\n', "\\n")
+    s.replace('\\', "\\\\")
+        .replace('"', "\\\"")
+        .replace('\n', "\\n")
 }
 
 /// The slice as a DOT digraph.
@@ -37,8 +39,16 @@ pub fn to_dot(slice: &Slice) -> String {
     );
     for (i, p) in slice.places.iter().enumerate() {
         let marked = slice.initial_marking.contains(&(i as u32));
-        let shape = if slice.final_place == Some(i as u32) { "doublecircle" } else { "circle" };
-        let label = if marked { format!("{}\\n●", esc(&p.label)) } else { esc(&p.label) };
+        let shape = if slice.final_place == Some(i as u32) {
+            "doublecircle"
+        } else {
+            "circle"
+        };
+        let label = if marked {
+            format!("{}\\n●", esc(&p.label))
+        } else {
+            esc(&p.label)
+        };
         let _ = writeln!(
             out,
             "  p{i} [shape={shape}, label=\"{label}\", tooltip=\"{}\"];",

@@ -52,8 +52,8 @@ pub struct Budget {
 impl Default for Budget {
     fn default() -> Self {
         Budget {
-            pairs: 20_000,
-            markings: 200_000,
+            pairs: 10_000,
+            markings: 40_000,
         }
     }
 }
@@ -93,12 +93,41 @@ pub enum Verdict {
         only_left: Vec<Event>,
         only_right: Vec<Event>,
     },
+    /// Loops nest deeper around one place than the explorer can count.
+    TooDeep,
     /// A place received a second token: the net is not 1-safe.
-    Unsafe { left: bool, place: String, trace: Vec<Event> },
+    Unsafe {
+        left: bool,
+        place: String,
+        trace: Vec<Event>,
+    },
 }
 
-type Colour = Box<[u8]>;
+/// A colour packed in a word: its length in the top byte, counter `i`
+/// (outermost first) in byte `i`; bytes past the length are zero, so equal
+/// colours are equal words and a longer colour is a greater word.
+type Colour = u64;
 type Marking = Box<[(u32, Colour)]>;
+
+/// Loops nested deeper than this around one place are beyond the explorer.
+const MAX_DEPTH: u64 = 7;
+
+fn colour_len(c: Colour) -> u64 {
+    c >> 56
+}
+
+fn innermost(c: Colour) -> u32 {
+    match colour_len(c) {
+        0 => 0,
+        n => ((c >> (8 * (n - 1))) & 0xff) as u32,
+    }
+}
+
+fn unpack(c: Colour) -> Vec<u8> {
+    (0..colour_len(c))
+        .map(|i| ((c >> (8 * i)) & 0xff) as u8)
+        .collect()
+}
 
 struct T {
     consume: Vec<u32>,
@@ -114,6 +143,11 @@ struct T {
 struct Game {
     place_ids: Vec<String>,
     transitions: Vec<T>,
+    /// Transitions that consume or read each place: only those of marked
+    /// places can be enabled.
+    users: Vec<Vec<u32>>,
+    /// Transitions without input places: enabled in every marking.
+    sources: Vec<u32>,
     cap: u8,
     final_place: u32,
     initial: Marking,
@@ -143,7 +177,7 @@ impl Game {
             place_ids.push(p.id.clone());
         }
         let cap = (colour_caps(net) + 1).clamp(2, 250) as u8;
-        let transitions = net
+        let transitions: Vec<T> = net
             .transitions()
             .map(|(v, t)| {
                 let mut consume = Vec::new();
@@ -162,7 +196,9 @@ impl Game {
                     .collect();
                 let (mut below, mut at_least) = (None, None);
                 if let Some(g) = &t.guard {
-                    if let Some(n) = (0..=u8::MAX as u32).find(|&n| g.holds_on_colour(&[n]) != g.holds_on_colour(&[0])) {
+                    if let Some(n) = (0..=u8::MAX as u32)
+                        .find(|&n| g.holds_on_colour(&[n]) != g.holds_on_colour(&[0]))
+                    {
                         if g.holds_on_colour(&[0]) == Some(true) {
                             below = Some(n);
                         } else {
@@ -179,10 +215,14 @@ impl Game {
                     _ => None,
                 };
                 let marks_final = produce.iter().any(|&(p, _)| p == final_place);
-                let sole = net.preset(v).all(|p| {
-                    net.graph.edges_directed(p, Direction::Outgoing).count() == 1
-                });
-                let eager = label.is_none() && !marks_final && read.is_empty() && !consume.is_empty() && sole;
+                let sole = net
+                    .preset(v)
+                    .all(|p| net.graph.edges_directed(p, Direction::Outgoing).count() == 1);
+                let eager = label.is_none()
+                    && !marks_final
+                    && read.is_empty()
+                    && !consume.is_empty()
+                    && sole;
                 T {
                     consume,
                     read,
@@ -195,16 +235,30 @@ impl Game {
                 }
             })
             .collect();
+        let mut users = vec![Vec::new(); place_ids.len()];
+        for (k, t) in transitions.iter().enumerate() {
+            for &p in t.consume.iter().chain(&t.read) {
+                users[p as usize].push(k as u32);
+            }
+        }
+        let sources = (0..transitions.len() as u32)
+            .filter(|&k| {
+                let t = &transitions[k as usize];
+                t.consume.is_empty() && t.read.is_empty()
+            })
+            .collect();
         let mut initial: Vec<(u32, Colour)> = net
             .initial_marking
             .iter()
-            .map(|&p| (index[p.index()], Box::default()))
+            .map(|&p| (index[p.index()], 0))
             .collect();
         initial.sort();
         initial.dedup();
         Game {
             place_ids,
             transitions,
+            users,
+            sources,
             cap,
             final_place,
             initial: initial.into_boxed_slice(),
@@ -212,57 +266,58 @@ impl Game {
     }
 
     fn token(m: &Marking, p: u32) -> Option<&Colour> {
-        m.binary_search_by_key(&p, |(q, _)| *q).ok().map(|i| &m[i].1)
+        m.binary_search_by_key(&p, |(q, _)| *q)
+            .ok()
+            .map(|i| &m[i].1)
     }
 
     /// The binding colour if `t` is enabled in `m`: the longest colour among
     /// the tokens it consumes or reads, as in the reference token game (the
     /// greatest on a tie, so the order of arcs does not matter).
     fn enabled(&self, m: &Marking, t: &T) -> Option<Colour> {
-        let mut colour: Option<&Colour> = None;
+        let mut colour: Colour = 0;
         for &p in t.consume.iter().chain(&t.read) {
-            let c = Self::token(m, p)?;
-            colour = match colour {
-                Some(d) if (d.len(), d) >= (c.len(), c) => Some(d),
-                _ => Some(c),
-            };
+            colour = colour.max(*Self::token(m, p)?);
         }
-        let colour = colour.cloned().unwrap_or_default();
-        let innermost = colour.last().copied().unwrap_or(0) as u32;
+        let innermost = innermost(colour);
         if t.below.is_some_and(|n| innermost >= n) || t.at_least.is_some_and(|n| innermost < n) {
             return None;
         }
         Some(colour)
     }
 
-    fn apply(&self, op: ColourOp, c: &[u8]) -> Colour {
-        let mut c = c.to_vec();
-        match op {
-            ColourOp::Keep => {}
-            ColourOp::Enter => c.push(0),
+    fn apply(&self, op: ColourOp, c: Colour) -> Result<Colour, Stop> {
+        let n = colour_len(c);
+        Ok(match op {
+            ColourOp::Keep => c,
+            ColourOp::Enter if n >= MAX_DEPTH => return Err(Stop::TooDeep),
+            ColourOp::Enter => (c & ((1 << 56) - 1)) | ((n + 1) << 56),
+            ColourOp::Next if n == 0 => c,
             ColourOp::Next => {
-                if let Some(last) = c.last_mut() {
-                    *last = last.saturating_add(1).min(self.cap);
-                }
+                let shift = 8 * (n - 1);
+                let v = ((c >> shift) & 0xff).saturating_add(1).min(self.cap as u64);
+                (c & !(0xff << shift)) | (v << shift)
             }
-            ColourOp::Leave => {
-                c.pop();
-            }
-            ColourOp::Plain => c.clear(),
-        }
-        c.into_boxed_slice()
+            ColourOp::Leave if n == 0 => c,
+            ColourOp::Leave => (c & !(0xff << (8 * (n - 1))) & ((1 << 56) - 1)) | ((n - 1) << 56),
+            ColourOp::Plain => 0,
+        })
     }
 
-    /// Fires `t`; `Err(place)` if a place would hold two tokens.
-    fn fire(&self, m: &Marking, t: &T, colour: &Colour) -> Result<Marking, u32> {
-        let mut next: Vec<(u32, Colour)> = m.iter().filter(|(p, _)| !t.consume.contains(p)).cloned().collect();
+    /// Fires `t`; `Unsafe` if a place would hold two tokens.
+    fn fire(&self, m: &Marking, t: &T, colour: Colour) -> Result<Marking, Stop> {
+        let mut next: Vec<(u32, Colour)> = m
+            .iter()
+            .filter(|(p, _)| !t.consume.contains(p))
+            .copied()
+            .collect();
         for &(p, op) in &t.produce {
             if next.iter().any(|(q, _)| *q == p) {
-                return Err(p);
+                return Err(Stop::Unsafe(self.place_ids[p as usize].clone()));
             }
-            next.push((p, self.apply(op, colour)));
+            next.push((p, self.apply(op, colour)?));
         }
-        next.sort();
+        next.sort_unstable();
         Ok(next.into_boxed_slice())
     }
 }
@@ -287,6 +342,7 @@ struct Side {
 enum Stop {
     Unsafe(String),
     Budget,
+    TooDeep,
 }
 
 impl Side {
@@ -321,27 +377,41 @@ impl Side {
         let mut silent = Vec::new();
         let mut visible = Vec::new();
         let mut any = false;
-        let eager = self
-            .game
-            .transitions
+        let mut candidates: Vec<usize> = m
             .iter()
-            .position(|t| t.eager && self.game.enabled(&m, t).is_some());
+            .flat_map(|(p, _)| self.game.users[*p as usize].iter().map(|&k| k as usize))
+            .chain(self.game.sources.iter().map(|&k| k as usize))
+            .collect();
+        candidates.sort_unstable();
+        candidates.dedup();
+        let eager = candidates.iter().copied().find(|&k| {
+            self.game.transitions[k].eager
+                && self.game.enabled(&m, &self.game.transitions[k]).is_some()
+        });
         let chosen: Vec<usize> = match eager {
             Some(k) => vec![k],
-            None => (0..self.game.transitions.len()).collect(),
+            None => candidates,
         };
         for k in chosen {
             let t = &self.game.transitions[k];
-            let Some(colour) = self.game.enabled(&m, t) else { continue };
+            let Some(colour) = self.game.enabled(&m, t) else {
+                continue;
+            };
             any = true;
-            let next = self
-                .game
-                .fire(&m, t, &colour)
-                .map_err(|p| Stop::Unsafe(self.game.place_ids[p as usize].clone()))?;
+            let next = self.game.fire(&m, t, colour)?;
             let event = match t.label {
-                Some((0, instance)) => Some(Event::Start { instance, colour: colour.to_vec() }),
-                Some((1, instance)) => Some(Event::End { instance, colour: colour.to_vec() }),
-                Some((_, instance)) => Some(Event::Cancel { instance, colour: colour.to_vec() }),
+                Some((0, instance)) => Some(Event::Start {
+                    instance,
+                    colour: unpack(colour),
+                }),
+                Some((1, instance)) => Some(Event::End {
+                    instance,
+                    colour: unpack(colour),
+                }),
+                Some((_, instance)) => Some(Event::Cancel {
+                    instance,
+                    colour: unpack(colour),
+                }),
                 None if t.marks_final => Some(Event::Final),
                 None => None,
             };
@@ -374,7 +444,14 @@ impl Side {
             if self.markings.len() > budget {
                 return Err(Stop::Budget);
             }
-            stack.extend(self.succ[i as usize].as_ref().expect("computed").silent.iter().copied());
+            stack.extend(
+                self.succ[i as usize]
+                    .as_ref()
+                    .expect("computed")
+                    .silent
+                    .iter()
+                    .copied(),
+            );
         }
         seen.sort_unstable();
         if let Some(&k) = self.macros.get(&seen) {
@@ -394,7 +471,9 @@ impl Side {
         let mut seeds: BTreeMap<Event, Vec<u32>> = BTreeMap::new();
         let mut dead = false;
         for &i in &self.macro_sets[k as usize].clone() {
-            let s = self.succ[i as usize].as_ref().expect("closed states are expanded");
+            let s = self.succ[i as usize]
+                .as_ref()
+                .expect("closed states are expanded");
             dead |= s.dead;
             for (e, j) in &s.visible {
                 seeds.entry(e.clone()).or_default().push(*j);
@@ -447,6 +526,7 @@ pub fn compare(left: &Net, right: &Net, budget: Budget) -> Verdict {
                 }
             }
             Err(Stop::Budget) => return Verdict::EquivalentUpTo { depth: 0, pairs: 0 },
+            Err(Stop::TooDeep) => return Verdict::TooDeep,
         }
     }
     let mut visited: HashMap<(u32, u32), usize> = HashMap::new();
@@ -484,10 +564,19 @@ pub fn compare(left: &Net, right: &Net, budget: Budget) -> Verdict {
                         pairs: visited.len(),
                     }
                 }
+                Err(Stop::TooDeep) => return Verdict::TooDeep,
             }
         }
-        let only_left: Vec<Event> = succ[0].keys().filter(|e| !succ[1].contains_key(e)).cloned().collect();
-        let only_right: Vec<Event> = succ[1].keys().filter(|e| !succ[0].contains_key(e)).cloned().collect();
+        let only_left: Vec<Event> = succ[0]
+            .keys()
+            .filter(|e| !succ[1].contains_key(e))
+            .cloned()
+            .collect();
+        let only_right: Vec<Event> = succ[1]
+            .keys()
+            .filter(|e| !succ[0].contains_key(e))
+            .cloned()
+            .collect();
         if !only_left.is_empty() || !only_right.is_empty() {
             return Verdict::Different {
                 trace: trace(&parents, id),

@@ -18,7 +18,11 @@ pub enum SliceError {
         span: Option<Span>,
     },
     #[error("arc {from} -> {to} has weight {weight}: a 1-safe mission net has unit weights")]
-    ArcWeight { from: String, to: String, weight: u32 },
+    ArcWeight {
+        from: String,
+        to: String,
+        weight: u32,
+    },
     #[error("a drone is named `{0}`, the name of the ground station; rename the drone")]
     ReservedName(String),
     #[error("the net names {drones} drones but {profiles} profiles")]
@@ -37,7 +41,9 @@ pub enum SliceError {
 pub enum DecodeError {
     #[error("not an eamos slice file: it does not start with the slice header")]
     NotASlice,
-    #[error("slice format version {found}; this eamos reads version {expected}: rebuild the mission")]
+    #[error(
+        "slice format version {found}; this eamos reads version {expected}: rebuild the mission"
+    )]
     Version { found: u16, expected: u16 },
     #[error("slice file is truncated: the header announces {expected} bytes of content, {found} are there")]
     Truncated { expected: u64, found: u64 },

@@ -3,12 +3,14 @@
 //! between two owners becomes a bridge, the only thing that crosses between
 //! drones at run time.
 
+pub mod bound;
 mod codec;
 pub mod compose;
 mod distribute;
 pub mod dot;
 pub mod equivalence;
 mod error;
+mod output;
 mod partition;
 pub mod slice;
 pub mod stats;
@@ -16,5 +18,6 @@ pub mod stats;
 pub use codec::{FORMAT_VERSION, MAGIC};
 pub use distribute::{mission_id, slice, Slices};
 pub use error::{DecodeError, SliceError};
+pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};
 pub use stats::{SliceStats, Statistics};

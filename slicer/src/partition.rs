@@ -190,7 +190,10 @@ fn conflict(net: &Net, nodes: &[NodeId], owners: Vec<Owner>) -> SliceError {
         .unwrap_or(nodes[0]);
     SliceError::OwnerConflict {
         place: node_id(net, place),
-        owners: owners.iter().map(|&o| net.owner_name(o).to_string()).collect(),
+        owners: owners
+            .iter()
+            .map(|&o| net.owner_name(o).to_string())
+            .collect(),
         span: match &net.graph[place] {
             Node::Place(p) => p.span,
             Node::Transition(t) => Some(t.span),
@@ -260,7 +263,13 @@ impl Facts {
 /// Whether `p` may be joined on its producers' owner before its only
 /// consumer `join` takes it: nobody else looks at `p`, it is not marked at
 /// the start, and all its producers share one owner other than `join`'s.
-fn prejoinable(net: &Net, facts: &Facts, owner: &[Owner], p: NodeId, join: NodeId) -> Option<Owner> {
+fn prejoinable(
+    net: &Net,
+    facts: &Facts,
+    owner: &[Owner],
+    p: NodeId,
+    join: NodeId,
+) -> Option<Owner> {
     if facts.marked[p.index()] {
         return None;
     }
@@ -372,7 +381,11 @@ pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bun
     for (_, join, from, places) in prejoins {
         let arcs: Vec<EdgeIndex> = places
             .iter()
-            .flat_map(|&p| net.graph.edges_directed(p, Direction::Incoming).map(|e| e.id()))
+            .flat_map(|&p| {
+                net.graph
+                    .edges_directed(p, Direction::Incoming)
+                    .map(|e| e.id())
+            })
             .collect();
         if arcs.iter().any(|e| covered[e.index()]) {
             continue;
@@ -469,9 +482,14 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
         }
     }
     let default = owners.first().copied().unwrap_or(Owner::Gcs);
-    let mut unit_owner: Vec<Owner> = unit_owner.into_iter().map(|o| o.unwrap_or(default)).collect();
+    let mut unit_owner: Vec<Owner> = unit_owner
+        .into_iter()
+        .map(|o| o.unwrap_or(default))
+        .collect();
 
-    let free: Vec<usize> = (0..nu).filter(|&u| units.units[u].fixed.is_none()).collect();
+    let free: Vec<usize> = (0..nu)
+        .filter(|&u| units.units[u].fixed.is_none())
+        .collect();
     if free.is_empty() {
         return Assignment { unit_owner };
     }

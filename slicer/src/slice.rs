@@ -119,7 +119,10 @@ impl Slice {
 
     /// The local place with this stable id.
     pub fn place_by_id(&self, id: &str) -> Option<LocalPlace> {
-        self.places.iter().position(|p| p.id == id).map(|i| i as u32)
+        self.places
+            .iter()
+            .position(|p| p.id == id)
+            .map(|i| i as u32)
     }
 
     /// The local transition with this stable id.
@@ -157,19 +160,26 @@ impl Slice {
         }
         for &p in &self.initial_marking {
             if !place_ok(p) {
-                return bad(format!("initial marking names place #{p}, the slice has {np} places"));
+                return bad(format!(
+                    "initial marking names place #{p}, the slice has {np} places"
+                ));
             }
         }
         if let Some(p) = self.final_place {
             if !place_ok(p) || self.places[p as usize].kind != PlaceKind::Final {
-                return bad(format!("final place #{p} is not a final place of the slice"));
+                return bad(format!(
+                    "final place #{p} is not a final place of the slice"
+                ));
             }
         }
         let mut ids = BTreeSet::new();
         let mut peers = BTreeSet::new();
         for b in &self.bridges_in {
             if !place_ok(b.inbox) {
-                return bad(format!("bridge {} delivers into place #{}, the slice has {np} places", b.id, b.inbox));
+                return bad(format!(
+                    "bridge {} delivers into place #{}, the slice has {np} places",
+                    b.id, b.inbox
+                ));
             }
             if !ids.insert(b.id) {
                 return bad(format!("bridge {} appears twice", b.id));
@@ -204,7 +214,13 @@ impl Slice {
             }
         }
         for t in &self.transitions {
-            let mut named: Vec<u16> = t.transition.kind.action().map(|a| a.drone.0).into_iter().collect();
+            let mut named: Vec<u16> = t
+                .transition
+                .kind
+                .action()
+                .map(|a| a.drone.0)
+                .into_iter()
+                .collect();
             if let Some(g) = &t.transition.guard {
                 named.extend(g.drones().iter().map(|d| d.0));
             }
