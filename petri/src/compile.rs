@@ -200,6 +200,18 @@ struct Region {
     remote: BTreeMap<Owner, Remote>,
 }
 
+/// What makes one loop different from another.
+struct Loop<'b> {
+    label: String,
+    /// Owner of the head's guarded transitions.
+    owner: Owner,
+    iterate: Guard,
+    leave: Guard,
+    body: &'b Block,
+    exit: Option<&'b Block>,
+    span: Span,
+}
+
 struct Remote {
     live: NodeId,
     cancelled: NodeId,
@@ -579,18 +591,18 @@ impl Compiler<'_> {
     }
 
     /// The common shape of both loops; see the module documentation.
-    #[allow(clippy::too_many_arguments)]
-    fn loop_(
-        &mut self,
-        label: String,
-        owner: Owner,
-        iterate: Guard,
-        leave: Guard,
-        body: &Block,
-        exit: Option<&Block>,
-        span: Span,
-        entry: NodeId,
-    ) -> (NodeId, NodeId, [NodeId; 2]) {
+    /// Returns the loop head, the exit place (after the exit block) and the
+    /// iterate and leave transitions.
+    fn loop_(&mut self, l: Loop<'_>, entry: NodeId) -> (NodeId, NodeId, [NodeId; 2]) {
+        let Loop {
+            label,
+            owner,
+            iterate,
+            leave,
+            body,
+            exit,
+            span,
+        } = l;
         let enter = self.transition(
             format!("enter {label}"),
             TransitionKind::Silent,
@@ -656,13 +668,15 @@ impl Compiler<'_> {
             CondMode::Until => (format!("RepeatUntil {text}"), true),
         };
         let (head, exit, branches) = self.loop_(
-            label.clone(),
-            owner,
-            Guard::cond(cond.clone(), iterate_negated),
-            Guard::cond(cond.clone(), !iterate_negated),
-            body,
-            exit,
-            span,
+            Loop {
+                label: label.clone(),
+                owner,
+                iterate: Guard::cond(cond.clone(), iterate_negated),
+                leave: Guard::cond(cond.clone(), !iterate_negated),
+                body,
+                exit,
+                span,
+            },
             entry,
         );
         for t in branches {
@@ -674,13 +688,15 @@ impl Compiler<'_> {
 
     fn repeat_for(&mut self, count: u32, body: &Block, span: Span, entry: NodeId) -> NodeId {
         let (_, exit, _) = self.loop_(
-            format!("RepeatFor {count}"),
-            Owner::Unassigned,
-            Guard::iteration_below(count),
-            Guard::iteration_at_least(count),
-            body,
-            None,
-            span,
+            Loop {
+                label: format!("RepeatFor {count}"),
+                owner: Owner::Unassigned,
+                iterate: Guard::iteration_below(count),
+                leave: Guard::iteration_at_least(count),
+                body,
+                exit: None,
+                span,
+            },
             entry,
         );
         exit

@@ -1,6 +1,23 @@
 //! Coloured Petri nets of missions: the model ([`net`]), the compiler from a
 //! checked mission ([`compile()`]), the reference token game ([`game`]), the
 //! exports ([`export`]) and size statistics ([`stats`]).
+//!
+//! ```
+//! use eamos_lang::SourceFile;
+//! use eamos_petri::game::{self, oracle, Outcome};
+//!
+//! let profiles = eamos_mid::profiles::builtin();
+//! let file = SourceFile::new(
+//!     "m.go",
+//!     "package M\nvar D1 Quadcopter\nfunc INIT() {\n\tD1.Takeoff(1)\n\tD1.Land()\n}\n",
+//! );
+//! let mission = eamos_lang::compile(&file, &profiles).expect("valid").mission;
+//! let net = eamos_petri::compile(&mission, &profiles);
+//! // Play the token game with a world that answers conditions at random.
+//! let run = game::run_random(&net, 7, oracle::random(7, 0.5), 1_000);
+//! assert_eq!(run.outcome, Outcome::Final);
+//! assert!(run.marking.is_marked(net.final_place));
+//! ```
 
 pub mod compile;
 pub mod export;

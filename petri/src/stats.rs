@@ -118,6 +118,10 @@ impl fmt::Display for NetStats {
             row(f, c)?;
         }
         row(f, &self.total)?;
-        writeln!(f, "arcs between two drones: {}", self.cross_owner_arcs)
+        writeln!(
+            f,
+            "arcs between two owners (messages): {}",
+            self.cross_owner_arcs
+        )
     }
 }

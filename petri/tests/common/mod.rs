@@ -431,7 +431,11 @@ pub fn assert_consumers_agree(net: &Net) {
         let mut owners: Vec<_> = net.consumers(p).map(|(t, _)| net.owner(t)).collect();
         owners.sort();
         owners.dedup();
-        assert!(owners.len() <= 1, "place {:?} has consumers of {owners:?}", place.label);
+        assert!(
+            owners.len() <= 1,
+            "place {:?} has consumers of {owners:?}",
+            place.label
+        );
         if let [o] = owners[..] {
             if p != net.initial_place {
                 assert_eq!(place.owner, o, "place {:?}", place.label);
