@@ -26,7 +26,9 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Write the mission's Petri net into DIR as `net.pnml` (PNML P/T net),
-    /// `net.dot` (Graphviz) and `net.graphml`.
+    /// `net.dot` (Graphviz) and `net.graphml`, and one slice per drone (and
+    /// the ground station) as `slice-<drone>.json`, `slice-<drone>.bin` and
+    /// `net-<drone>.dot`.
     #[arg(short = 'o', long = "out", value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// In `net.pnml`, add a transition `final_loop` on the place `final`, so
@@ -90,18 +92,41 @@ pub fn run(args: Args) -> ExitCode {
             let summary = compiled.mission.summary();
             let net = eamos_petri::compile(&compiled.mission, &profiles);
             let net_stats = eamos_petri::stats::stats(&net);
-            let written = match &args.out {
-                None => Vec::new(),
-                Some(dir) => match write_net(&net, &source, dir, args.pnml_final_loop) {
-                    Ok(w) => w,
-                    Err(message) => {
-                        if args.json {
-                            println!("{}", json!({ "file": source.name, "error": message }));
-                        }
-                        eprintln!("error: {message}");
-                        return ExitCode::from(2);
+            let slices = match eamos_slicer::slice(&net) {
+                Ok(s) => s,
+                Err(e) => {
+                    let message = format!("cannot slice the net of {}: {e}", source.name);
+                    if args.json {
+                        println!("{}", json!({ "file": source.name, "error": message }));
                     }
-                },
+                    eprintln!("error: {message}");
+                    return ExitCode::from(2);
+                }
+            };
+            let slice_stats = eamos_slicer::Statistics::of(&slices);
+            let (written, slices_written) = match &args.out {
+                None => (Vec::new(), Vec::new()),
+                Some(dir) => {
+                    match write_net(&net, &source, dir, args.pnml_final_loop).and_then(|w| {
+                        let files = eamos_slicer::write_dir(&slices, dir).map_err(|e| {
+                            format!("cannot write slices into {}: {e}", dir.display())
+                        })?;
+                        let s: Vec<PathBuf> = files
+                            .into_iter()
+                            .flat_map(|f| [f.json, f.binary, f.dot])
+                            .collect();
+                        Ok((w, s))
+                    }) {
+                        Ok(w) => w,
+                        Err(message) => {
+                            if args.json {
+                                println!("{}", json!({ "file": source.name, "error": message }));
+                            }
+                            eprintln!("error: {message}");
+                            return ExitCode::from(2);
+                        }
+                    }
+                }
             };
             if args.json {
                 let warnings: Vec<_> = compiled
@@ -116,7 +141,9 @@ pub fn run(args: Args) -> ExitCode {
                         "summary": summary,
                         "warnings": warnings,
                         "net": net_stats,
+                        "slices": slice_stats,
                         "written": written,
+                        "slices_written": slices_written,
                     })
                 );
             } else {
@@ -128,7 +155,11 @@ pub fn run(args: Args) -> ExitCode {
                 }
                 print!("{summary}");
                 print!("\n{net_stats}");
-                for path in &written {
+                print!(
+                    "\nslices (one per drone, bridges between them):\n{}",
+                    slice_stats.table()
+                );
+                for path in written.iter().chain(&slices_written) {
                     println!("wrote {}", path.display());
                 }
             }
