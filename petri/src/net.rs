@@ -513,11 +513,15 @@ impl Net {
         }
     }
 
-    /// A name a person recognises: the drone name, `GCS` or `-`.
+    /// A name a person recognises: the drone name, `GCS` or `-` (and
+    /// `unknown drone` for an id the net does not know, rather than a panic).
     pub fn owner_name(&self, o: Owner) -> &str {
         match o {
             Owner::Gcs => "GCS",
-            Owner::Drone(d) => &self.drones[d.0 as usize],
+            Owner::Drone(d) => self
+                .drones
+                .get(d.0 as usize)
+                .map_or("unknown drone", String::as_str),
             Owner::Unassigned => "-",
         }
     }
