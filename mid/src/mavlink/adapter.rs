@@ -144,6 +144,81 @@ impl fmt::Debug for MavlinkOptions {
     }
 }
 
+/// The settings a fleet file may give one MAVLink drone, all optional:
+///
+/// ```toml
+/// [drones.Drone1.mavlink]
+/// target_system = 1          # fly only this system id
+/// ready_timeout = 180        # seconds to wait for readiness when arming
+/// link_timeout = 5           # seconds of silence that make a lost link
+/// arrival_tolerance = 0.3    # metres
+/// min_speed = 0.3            # m/s, for motion timeouts
+/// fleet_origin = [46.6139, 14.2650, 446.0]   # lat, lon, alt: home from GPS
+/// rearm_for_takeoff = true
+/// ```
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MavlinkSettings {
+    pub target_system: Option<u8>,
+    pub ready_timeout: Option<f64>,
+    pub link_timeout: Option<f64>,
+    pub arrival_tolerance: Option<f64>,
+    pub min_speed: Option<f64>,
+    pub fleet_origin: Option<[f64; 3]>,
+    pub rearm_for_takeoff: Option<bool>,
+}
+
+impl MavlinkSettings {
+    /// Checks the numbers; the message names the setting.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [
+            ("ready_timeout", self.ready_timeout),
+            ("link_timeout", self.link_timeout),
+            ("arrival_tolerance", self.arrival_tolerance),
+            ("min_speed", self.min_speed),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0 && v < 1.0e6) {
+                    return Err(format!("`{name}` must be a positive number, not {v}"));
+                }
+            }
+        }
+        if self.target_system == Some(0) {
+            return Err("`target_system` 0 is the broadcast address, not a vehicle".to_string());
+        }
+        if let Some([lat, lon, alt]) = self.fleet_origin {
+            Geodetic::parse(&format!("{lat},{lon},{alt}"))
+                .map_err(|e| format!("`fleet_origin`: {e}"))?;
+        }
+        Ok(())
+    }
+
+    /// Overrides the options this fleet entry sets.
+    pub fn apply(&self, options: &mut MavlinkOptions) {
+        if let Some(s) = self.target_system {
+            options.target_system = Some(s);
+        }
+        if let Some(t) = self.ready_timeout {
+            options.ready_timeout = Duration::from_secs_f64(t);
+        }
+        if let Some(t) = self.link_timeout {
+            options.link_timeout = Duration::from_secs_f64(t);
+        }
+        if let Some(t) = self.arrival_tolerance {
+            options.arrival_tolerance = t;
+        }
+        if let Some(v) = self.min_speed {
+            options.min_speed = v;
+        }
+        if let Some([lat, lon, alt]) = self.fleet_origin {
+            options.fleet_origin = Some(Geodetic::new(lat, lon, alt));
+        }
+        if let Some(r) = self.rearm_for_takeoff {
+            options.rearm_for_takeoff = r;
+        }
+    }
+}
+
 /// Why the adapter could not be created.
 #[derive(Debug, thiserror::Error)]
 pub enum MavlinkError {
@@ -549,10 +624,33 @@ impl Shared {
                 }
             }
         };
-        tokio::select! {
-            r = command_long(&self.link, target, command, params, &self.options.commands) => Ok(r),
-            _ = lost => Err(link_lost()),
+        let sent_at = Instant::now();
+        let outcome = tokio::select! {
+            r = command_long(&self.link, target, command, params, &self.options.commands) => r,
+            _ = lost => return Err(link_lost()),
+        };
+        if let Err(CommandError::NoAck { .. }) = &outcome {
+            // No answer, and nothing at all heard since the command went
+            // out: that is a lost link rather than a slow autopilot, and
+            // the link monitor is about to say so. Wait for its verdict.
+            let last_heard = self.watched.borrow().vehicle.last_heard;
+            if let Some(heard) = last_heard.filter(|h| *h < sent_at) {
+                let verdict = heard + self.options.link_timeout + Duration::from_secs(1);
+                let silent = self
+                    .wait(verdict, &CancellationToken::new(), |w| {
+                        if w.vehicle.last_heard > Some(sent_at) {
+                            Check::Done(())
+                        } else {
+                            Check::Pending
+                        }
+                    })
+                    .await;
+                if let Err(Halt::LinkLost) = silent {
+                    return Err(link_lost());
+                }
+            }
         }
+        Ok(outcome)
     }
 
     async fn command(
@@ -1526,5 +1624,51 @@ async fn stream_task(s: Arc<Shared>) {
                 Err(_) => break,
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fleet_settings_override_only_what_they_name() {
+        let settings = MavlinkSettings {
+            ready_timeout: Some(180.0),
+            fleet_origin: Some([46.6, 14.2, 446.0]),
+            ..MavlinkSettings::default()
+        };
+        assert_eq!(settings.validate(), Ok(()));
+        let mut o = MavlinkOptions::default();
+        settings.apply(&mut o);
+        assert_eq!(o.ready_timeout, Duration::from_secs(180));
+        assert_eq!(o.fleet_origin, Some(Geodetic::new(46.6, 14.2, 446.0)));
+        assert_eq!(o.link_timeout, MavlinkOptions::default().link_timeout);
+        assert_eq!(o.arrival_tolerance, 0.3);
+    }
+
+    #[test]
+    fn bad_fleet_settings_name_the_setting() {
+        let e = MavlinkSettings {
+            link_timeout: Some(-1.0),
+            ..MavlinkSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.contains("`link_timeout`"), "{e}");
+        let e = MavlinkSettings {
+            fleet_origin: Some([95.0, 0.0, 0.0]),
+            ..MavlinkSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.contains("`fleet_origin`: latitude"), "{e}");
+        let e = MavlinkSettings {
+            target_system: Some(0),
+            ..MavlinkSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.contains("broadcast"), "{e}");
     }
 }

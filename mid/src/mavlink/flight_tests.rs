@@ -287,6 +287,23 @@ async fn losing_the_link_mid_flight_fails_the_motion_with_link_lost() {
 }
 
 #[tokio::test]
+async fn a_command_unanswered_on_a_silent_link_fails_as_a_lost_link_not_a_timeout() {
+    // A link timeout longer than the command's retries: the command gives
+    // up first, and the adapter waits for the link's verdict.
+    let r = rig(|_| {}, |a| a.link_timeout = Duration::from_secs(6)).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    v.set_silent(true);
+    assert_eq!(
+        run(a, "Land", &[]).await,
+        Err(ActionError::LinkLost {
+            action: "Land".into()
+        })
+    );
+}
+
+#[tokio::test]
 async fn an_rc_switch_that_overrides_guided_right_after_it_was_set_is_met_by_setting_it_again() {
     // At real time, so that heartbeats come once a second.
     let r = rig(

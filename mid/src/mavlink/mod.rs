@@ -33,7 +33,7 @@ pub mod vehicle;
 #[cfg(test)]
 mod flight_tests;
 
-pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions};
+pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use address::ConnectAddress;
 pub use command::CommandError;
 pub use readiness::{Missing, NotReady, Readiness};

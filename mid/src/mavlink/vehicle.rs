@@ -850,6 +850,7 @@ impl Vehicle {
         }
         match self.kin.arm() {
             Ok(()) => {
+                tracing::info!("sim-vehicle {}: armed", self.o.system_id);
                 self.idle_since = Some(self.time);
                 MavResult::MAV_RESULT_ACCEPTED
             }
@@ -913,6 +914,9 @@ impl Vehicle {
     /// Enters a mode: what the copter does on entering it.
     fn set_mode(&mut self, mode: CopterMode) {
         use CopterMode::*;
+        if mode != self.mode {
+            tracing::info!("sim-vehicle {}: mode {}", self.o.system_id, mode.name());
+        }
         self.mode = mode;
         self.returning = false;
         match mode {
