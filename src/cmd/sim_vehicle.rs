@@ -1,0 +1,150 @@
+//! `eamos sim-vehicle`: a simulated copter behind a MAVLink 2 endpoint that
+//! behaves like an ArduPilot copter (see `eamos_mid::mavlink::vehicle`),
+//! for trying a fleet file, a ground station or a script without SITL.
+//!
+//! By default it talks like SITL started with `--out`: from a port of its
+//! own to a ground station listening on `udpin:127.0.0.1:14550`. It runs
+//! until interrupted (or `--exit-after`). Exit status: 0 when it stopped as
+//! asked, 2 bad input.
+
+use std::io::IsTerminal;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use eamos_mid::mavlink::frame::Geodetic;
+use eamos_mid::mavlink::{ConnectAddress, SimVehicle, SimVehicleOptions};
+
+/// Fly a simulated copter over MAVLink, like an ArduPilot SITL copter.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Where it talks: `udpout:HOST:PORT` (to a listening ground station,
+    /// like SITL's `--out`), `udpin:HOST:PORT` or `tcpin:HOST:PORT` (it
+    /// listens, like SITL's `tcp:5760`).
+    #[arg(long, value_name = "ADDRESS", default_value = "udpout:127.0.0.1:14550")]
+    pub connect: String,
+    /// Its MAVLink system id.
+    #[arg(long, value_name = "ID", default_value_t = 1)]
+    pub sysid: u8,
+    /// Simulated seconds from boot until it is ready to arm (GPS fix, EKF
+    /// origin, EKF using GPS and pre-arm checks come in stages, as in SITL).
+    #[arg(long, value_name = "SECONDS", default_value_t = 40.0)]
+    pub ready_after: f64,
+    /// Simulated seconds per real second.
+    #[arg(long, value_name = "N", default_value_t = 1.0)]
+    pub speed: f64,
+    /// Where it stands at boot: latitude, longitude (degrees), altitude
+    /// (metres above sea level).
+    #[arg(
+        long,
+        value_name = "LAT,LON,ALT",
+        default_value = "-35.363261,149.165230,584",
+        allow_hyphen_values = true
+    )]
+    pub home: String,
+    /// Simulated seconds after boot at which the RC mode switch selects
+    /// STABILIZE, overwriting a mode set before (ArduPilot reads the switch
+    /// about 2 s after boot).
+    #[arg(long, value_name = "SECONDS")]
+    pub rc_mode_switch_at: Option<f64>,
+    /// Refuse arming with this message although the pre-arm checks pass
+    /// (an arming check such as "Arm: Hardware safety switch").
+    #[arg(long, value_name = "TEXT")]
+    pub refuse_arming: Option<String>,
+    /// Simulated seconds armed on the ground without a take-off before it
+    /// disarms itself (ArduPilot's DISARM_DELAY).
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    pub idle_disarm_after: f64,
+    /// Stop after this many real seconds (for scripts and tests).
+    #[arg(long, value_name = "SECONDS")]
+    pub exit_after: Option<f64>,
+}
+
+fn bad_input(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let connect = match ConnectAddress::parse(&args.connect) {
+        Ok(ConnectAddress::TcpOut(_)) => {
+            return bad_input(
+                "--connect: the vehicle listens or sends to a ground station: use udpout:, udpin: or tcpin:",
+            )
+        }
+        Ok(a) => a,
+        Err(e) => return bad_input(&format!("--connect: {e}")),
+    };
+    let home = match Geodetic::parse(&args.home) {
+        Ok(h) => h,
+        Err(e) => return bad_input(&format!("--home: {e}")),
+    };
+    if let Some(t) = args.exit_after {
+        if !(t.is_finite() && t > 0.0) {
+            return bad_input(&format!(
+                "--exit-after must be a number of seconds above zero, not {t}"
+            ));
+        }
+    }
+    let options = SimVehicleOptions {
+        connect,
+        system_id: args.sysid,
+        ready_after: args.ready_after,
+        speed: args.speed,
+        home,
+        rc_mode_switch_at: args.rc_mode_switch_at,
+        refuse_arming: args.refuse_arming,
+        idle_disarm_after: args.idle_disarm_after,
+        ..SimVehicleOptions::default()
+    };
+    if let Err(e) = options.validate() {
+        return bad_input(&e);
+    }
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_ansi(std::io::stderr().is_terminal())
+        .with_target(false)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .try_init();
+    let runtime = match tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the runtime: {e}")),
+    };
+    runtime.block_on(async move {
+        let description = format!(
+            "system {} on {} at {}x real time, ready after {} s, home {:.7},{:.7},{}",
+            options.system_id,
+            options.connect,
+            options.speed,
+            options.ready_after,
+            options.home.lat,
+            options.home.lon,
+            options.home.alt
+        );
+        let vehicle = match SimVehicle::start(options).await {
+            Ok(v) => v,
+            Err(e) => return bad_input(&e),
+        };
+        eprintln!("sim-vehicle: {description}");
+        if let Some(local) = vehicle.local_addr() {
+            eprintln!("sim-vehicle: listening on {local}");
+        }
+        let limit = async {
+            match args.exit_after {
+                Some(t) => tokio::time::sleep(Duration::from_secs_f64(t)).await,
+                None => std::future::pending().await,
+            }
+        };
+        tokio::select! {
+            _ = tokio::signal::ctrl_c() => eprintln!("sim-vehicle: interrupted"),
+            _ = limit => eprintln!("sim-vehicle: --exit-after reached"),
+        }
+        vehicle.shutdown().await;
+        ExitCode::SUCCESS
+    })
+}
