@@ -89,6 +89,10 @@ pub struct MavlinkOptions {
     pub gcs_component: u8,
     /// How long arming waits for the vehicle to become ready.
     pub ready_timeout: Duration,
+    /// Whether readiness asks for a 3D GPS fix. Indoors (motion capture,
+    /// optical flow) there is none; the EKF's position and the pre-arm
+    /// checks then decide, and the EKF origin must have been set.
+    pub require_gps: bool,
     /// Silence from the vehicle for this long is a lost link.
     pub link_timeout: Duration,
     /// Acknowledgement timeouts and retries of every command.
@@ -118,6 +122,7 @@ impl Default for MavlinkOptions {
             gcs_system: 255,
             gcs_component: 190,
             ready_timeout: Duration::from_secs(120),
+            require_gps: true,
             link_timeout: Duration::from_secs(5),
             commands: CommandPolicy::default(),
             arrival_tolerance: 0.3,
@@ -150,6 +155,7 @@ impl fmt::Debug for MavlinkOptions {
 /// [drones.Drone1.mavlink]
 /// target_system = 1          # fly only this system id
 /// ready_timeout = 180        # seconds to wait for readiness when arming
+/// require_gps = true         # false indoors (motion capture, optical flow)
 /// link_timeout = 5           # seconds of silence that make a lost link
 /// arrival_tolerance = 0.3    # metres
 /// min_speed = 0.3            # m/s, for motion timeouts
@@ -161,6 +167,7 @@ impl fmt::Debug for MavlinkOptions {
 pub struct MavlinkSettings {
     pub target_system: Option<u8>,
     pub ready_timeout: Option<f64>,
+    pub require_gps: Option<bool>,
     pub link_timeout: Option<f64>,
     pub arrival_tolerance: Option<f64>,
     pub min_speed: Option<f64>,
@@ -200,6 +207,9 @@ impl MavlinkSettings {
         }
         if let Some(t) = self.ready_timeout {
             options.ready_timeout = Duration::from_secs_f64(t);
+        }
+        if let Some(g) = self.require_gps {
+            options.require_gps = g;
         }
         if let Some(t) = self.link_timeout {
             options.link_timeout = Duration::from_secs_f64(t);
@@ -334,7 +344,14 @@ impl MavlinkAdapter {
         let clock = options.clock.clone().unwrap_or_else(MissionClock::wall);
         let home = options.home;
         let (watched, _) = watch::channel(Watched {
-            vehicle: VehicleState::new(options.target_system),
+            vehicle: VehicleState::with_readiness(
+                options.target_system,
+                if options.require_gps {
+                    Readiness::new()
+                } else {
+                    Readiness::without_gps()
+                },
+            ),
             link_lost: false,
             last_seen: HashMap::new(),
         });

@@ -39,6 +39,9 @@ pub struct Readiness {
     local_position: bool,
     /// The latest `PreArm:` STATUSTEXT, which says why the checks fail.
     prearm_text: Option<String>,
+    /// Flying without GPS (indoors on motion capture or optical flow,
+    /// with the EKF origin set by hand): no fix is asked for.
+    without_gps: bool,
 }
 
 /// One thing the autopilot has not yet reported.
@@ -83,6 +86,15 @@ impl Readiness {
         Self::default()
     }
 
+    /// Readiness of a vehicle that flies without GPS: the EKF's position
+    /// (from motion capture, optical flow) and the pre-arm checks decide.
+    pub fn without_gps() -> Self {
+        Self {
+            without_gps: true,
+            ..Self::default()
+        }
+    }
+
     /// Folds in one message from the vehicle (messages from other systems
     /// must be filtered out by the caller).
     pub fn observe(&mut self, message: &MavMessage) {
@@ -124,6 +136,7 @@ impl Readiness {
             missing.push(Missing::Heartbeat);
         }
         match self.gps {
+            _ if self.without_gps => {}
             Some((fix, _)) if fix_is_3d(fix) => {}
             Some((fix, satellites)) => missing.push(Missing::GpsFix {
                 fix: Some(fix),
@@ -481,6 +494,18 @@ mod tests {
         let mut r = arducopter_until(3);
         r.observe(&sys_status(false, false));
         assert!(r.is_ready());
+    }
+
+    #[test]
+    fn a_vehicle_flown_without_gps_is_not_asked_for_a_fix() {
+        let mut r = Readiness::without_gps();
+        r.observe(&heartbeat(MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA));
+        r.observe(&gps(GpsFixType::GPS_FIX_TYPE_NO_GPS, 0));
+        r.observe(&ekf(ekf_position_flags()));
+        r.observe(&local_position());
+        r.observe(&sys_status(true, true));
+        assert!(r.is_ready(), "{:?}", r.missing());
+        assert!(!arducopter_until(2).is_ready());
     }
 
     #[test]

@@ -69,6 +69,12 @@ pub enum Change {
 
 impl VehicleState {
     pub fn new(pinned_system: Option<u8>) -> Self {
+        Self::with_readiness(pinned_system, Readiness::new())
+    }
+
+    /// A state whose readiness follows `readiness`'s rules (see
+    /// [`Readiness::without_gps`]).
+    pub fn with_readiness(pinned_system: Option<u8>, readiness: Readiness) -> Self {
         Self {
             pinned_system,
             target: None,
@@ -79,7 +85,7 @@ impl VehicleState {
             global: None,
             battery: None,
             landed_state: None,
-            readiness: Readiness::new(),
+            readiness,
             statustext: None,
             last_heard: None,
         }
