@@ -126,6 +126,9 @@ enum Binding<'a> {
         /// `None` in the check pass.
         value: Option<f64>,
     },
+    /// A parameter whose type is wrong (already reported): uses of it are
+    /// not reported again.
+    Poisoned,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -254,7 +257,18 @@ impl<'a> Checker<'a> {
 
     fn run(&mut self) -> Option<hir::Mission> {
         self.declare();
-        let const_names: Vec<&'a str> = self.consts.keys().copied().collect();
+        // In declaration order, so that a cycle is always reported at the
+        // same place.
+        let const_names: Vec<&'a str> = self
+            .file
+            .decls
+            .iter()
+            .filter_map(|d| match d {
+                ast::Decl::Const(c) => Some(c.specs.iter().map(|s| s.name.name.as_str())),
+                _ => None,
+            })
+            .flatten()
+            .collect();
         for name in const_names {
             self.const_value(name, None);
         }
@@ -598,13 +612,13 @@ impl<'a> Checker<'a> {
         let params = info
             .params
             .iter()
-            .filter_map(|(p, ty)| {
+            .map(|(p, ty)| {
                 let b = match *ty {
                     ParamTy::Drone(profile) => Binding::Drone { id: None, profile },
                     ParamTy::Number { .. } => Binding::Number { value: None },
-                    ParamTy::Bad => return None,
+                    ParamTy::Bad => Binding::Poisoned,
                 };
-                Some((p.name.name.clone(), b))
+                (p.name.name.clone(), b)
             })
             .collect();
         Env { params }
@@ -1264,6 +1278,7 @@ impl<'a> Checker<'a> {
                 );
                 return None;
             }
+            Some(Binding::Poisoned) => return None,
             None => {}
         }
         if let Some(i) = self.drones.iter().position(|d| d.name.name == name.name) {
@@ -1506,6 +1521,7 @@ impl<'a> Checker<'a> {
                 );
                 None
             }
+            Some(Binding::Poisoned) => None,
             None => {
                 if let Some(i) = self.drones.iter().position(|d| d.name.name == ident.name) {
                     let d = &self.drones[i];
@@ -1547,6 +1563,9 @@ impl<'a> Checker<'a> {
     }
 
     fn unknown_block(&mut self, name: &ast::Ident, env: &Env<'a>) {
+        if matches!(env.get(&name.name), Some(Binding::Poisoned)) {
+            return;
+        }
         let is_drone = self.drones.iter().any(|d| d.name.name == name.name)
             || matches!(env.get(&name.name), Some(Binding::Drone { .. }));
         let d = if is_drone {
@@ -2115,6 +2134,7 @@ impl<'a> Checker<'a> {
                 self.emit(drone_as_value(name, span));
                 return None;
             }
+            Some(Binding::Poisoned) => return None,
             None => {}
         }
         if self.consts.contains_key(name) {

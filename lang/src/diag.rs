@@ -13,6 +13,178 @@ use serde::{Deserialize, Serialize};
 
 use crate::span::{SourceFile, Span};
 
+/// Every diagnostic code the front end emits, with what it means. Codes are
+/// stable: tools and tests key on them, messages may be reworded.
+pub const CODES: &[(&str, &str)] = &[
+    // Lexical and syntax errors.
+    (
+        "eamos::syntax",
+        "the text does not follow the grammar (unexpected token, unclosed bracket, missing type)",
+    ),
+    (
+        "eamos::missing-package",
+        "the file does not start with `package Name`",
+    ),
+    (
+        "eamos::stray-character",
+        "a character that is not part of the language",
+    ),
+    (
+        "eamos::unterminated-string",
+        "a string not closed on its line (or a raw string not closed at all)",
+    ),
+    ("eamos::unterminated-comment", "a `/*` comment never closed"),
+    ("eamos::bad-number", "a malformed number literal"),
+    (
+        "eamos::bad-escape",
+        "an unknown escape sequence in a string",
+    ),
+    (
+        "eamos::not-a-statement",
+        "an expression that runs nothing (`Drone1.Arm` without parentheses)",
+    ),
+    // Names.
+    ("eamos::unknown-drone", "a drone that is not declared"),
+    (
+        "eamos::unknown-profile",
+        "a drone type that no capability profile names",
+    ),
+    (
+        "eamos::unknown-action",
+        "an action the drone's profile does not offer",
+    ),
+    (
+        "eamos::unknown-property",
+        "a property the drone's profile does not offer",
+    ),
+    ("eamos::unknown-function", "a block that no function names"),
+    (
+        "eamos::unknown-name",
+        "a name in an expression that is no constant, parameter or boolean",
+    ),
+    (
+        "eamos::unknown-type",
+        "a parameter or constant type that is no drone type or number type",
+    ),
+    (
+        "eamos::unknown-event",
+        "an `Await` of an event that no `Signal` names",
+    ),
+    (
+        "eamos::duplicate",
+        "a drone, constant, function or parameter declared twice",
+    ),
+    (
+        "eamos::reserved-name",
+        "a declaration named like a control structure, `Signal`, `Await` or a boolean",
+    ),
+    (
+        "eamos::not-a-drone",
+        "a constant, block or number where a drone is expected",
+    ),
+    (
+        "eamos::not-a-block",
+        "something other than a function name where a block is expected",
+    ),
+    // Structure.
+    (
+        "eamos::no-entry",
+        "no function to start from (no `INIT` and no function that nobody calls)",
+    ),
+    (
+        "eamos::several-entries",
+        "several functions nobody calls and no `INIT`",
+    ),
+    ("eamos::entry-params", "the entry point takes parameters"),
+    ("eamos::call-entry", "`INIT` called or passed as a block"),
+    (
+        "eamos::recursion",
+        "a function that calls itself, directly or through others",
+    ),
+    (
+        "eamos::mission-too-large",
+        "the expanded mission exceeds the statement limit",
+    ),
+    (
+        "eamos::too-many-drones",
+        "more drones than a drone id can number",
+    ),
+    // Arguments and types.
+    (
+        "eamos::arg-count",
+        "a call with the wrong number of arguments",
+    ),
+    (
+        "eamos::arg-kind",
+        "an argument of the wrong kind (a number for a drone, a fraction for an `int`, ...)",
+    ),
+    (
+        "eamos::block-call-as-argument",
+        "a block passed with parentheses (`SEQ_Body()` instead of `SEQ_Body`)",
+    ),
+    (
+        "eamos::block-with-params",
+        "a block with parameters passed by name",
+    ),
+    (
+        "eamos::type-mismatch",
+        "a number where a boolean is needed or the other way round",
+    ),
+    (
+        "eamos::not-constant",
+        "a value read at run time where a constant is needed",
+    ),
+    ("eamos::division-by-zero", "a division by a constant zero"),
+    (
+        "eamos::overflow",
+        "constant arithmetic beyond the range of numbers",
+    ),
+    (
+        "eamos::const-cycle",
+        "constants defined in terms of each other",
+    ),
+    (
+        "eamos::property-as-action",
+        "a property used as a statement",
+    ),
+    (
+        "eamos::property-without-call",
+        "a property read without parentheses",
+    ),
+    (
+        "eamos::action-in-condition",
+        "an action used in a condition",
+    ),
+    (
+        "eamos::bad-repeat-count",
+        "a `RepeatFor` count that is negative or not whole",
+    ),
+    (
+        "eamos::negative-pause",
+        "a `PauseFor` with a negative duration",
+    ),
+    (
+        "eamos::signal-in-loop",
+        "a `Signal` inside a loop body: an event happens once",
+    ),
+    (
+        "eamos::unsupported",
+        "a profile parameter kind the language cannot pass yet",
+    ),
+    // Warnings.
+    ("eamos::unused-drone", "a drone declared but never used"),
+    (
+        "eamos::never-called",
+        "a function not reached from the entry point",
+    ),
+    ("eamos::empty-mission", "a mission that runs no action"),
+    ("eamos::event-never-awaited", "a `Signal` nothing waits for"),
+    (
+        "eamos::zero-repeat",
+        "a `RepeatFor(0, ...)` that never runs its body",
+    ),
+];
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
@@ -295,7 +467,11 @@ pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
             strsim::jaro_winkler(&lower, &c.to_lowercase())
         };
         let close_edit = strsim::levenshtein(name, c) <= (name.chars().count().max(3) / 3);
-        if (score >= 0.85 || close_edit) && best.is_none_or(|(s, _)| score > s) {
+        // Ties go to the alphabetically first name, whatever the order of
+        // `candidates`, so messages do not change from run to run.
+        if (score >= 0.85 || close_edit)
+            && best.is_none_or(|(s, b)| score > s || (score == s && c < b))
+        {
             best = Some((score, c));
         }
     }
@@ -313,6 +489,32 @@ pub fn did_you_mean<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_code_the_front_end_emits_is_listed_once() {
+        let sources = [
+            include_str!("check.rs"),
+            include_str!("lexer.rs"),
+            include_str!("parser.rs"),
+        ];
+        for src in sources {
+            for piece in src.split('"').skip(1).step_by(2) {
+                if let Some(code) = piece.strip_prefix("eamos::") {
+                    if code.ends_with('-') || code == "unterminated" {
+                        continue;
+                    }
+                    assert!(
+                        CODES.iter().any(|(c, _)| *c == piece),
+                        "`{piece}` is emitted but not listed in CODES"
+                    );
+                }
+            }
+        }
+        let mut names: Vec<&str> = CODES.iter().map(|(c, _)| *c).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), CODES.len(), "a code is listed twice");
+    }
 
     #[test]
     fn a_typo_suggests_the_close_name() {
