@@ -26,6 +26,10 @@ use crate::span::{SourceFile, Span};
 /// (calls doubling at every level), and would exhaust memory before it flies.
 pub const MAX_EXPANDED_STATEMENTS: usize = 100_000;
 
+/// How deep block calls may nest when expanded: far beyond a real mission,
+/// far below what would exhaust a thread's stack.
+pub const MAX_CALL_DEPTH: usize = 128;
+
 /// Codes whose findings need the whole file: after a syntax error a
 /// declaration may be missing, so these would only be echoes of it.
 const NEED_COMPLETE_FILE: &[&str] = &[
@@ -675,10 +679,48 @@ impl<'a> Checker<'a> {
 
     /// Reports every call cycle once; true if there is one.
     fn report_recursion(&mut self, graph: &BTreeMap<&'a str, Vec<(&'a str, Span)>>) -> bool {
+        // Functions on no cycle are peeled off first (repeatedly drop those
+        // that call nothing left), so the search below only starts from
+        // functions that can reach themselves: linear in a long call chain.
+        let mut left: BTreeMap<&str, usize> = graph
+            .iter()
+            .map(|(&f, calls)| {
+                (
+                    f,
+                    calls
+                        .iter()
+                        .map(|(to, _)| *to)
+                        .collect::<BTreeSet<_>>()
+                        .len(),
+                )
+            })
+            .collect();
+        let mut callers: HashMap<&str, Vec<&str>> = HashMap::new();
+        for (&from, calls) in graph {
+            for to in calls.iter().map(|(to, _)| *to).collect::<BTreeSet<_>>() {
+                callers.entry(to).or_default().push(from);
+            }
+        }
+        let mut leaves: Vec<&str> = left
+            .iter()
+            .filter(|(_, n)| **n == 0)
+            .map(|(f, _)| *f)
+            .collect();
+        while let Some(f) = leaves.pop() {
+            left.remove(f);
+            for caller in callers.get(f).into_iter().flatten() {
+                if let Some(n) = left.get_mut(caller) {
+                    *n -= 1;
+                    if *n == 0 {
+                        leaves.push(caller);
+                    }
+                }
+            }
+        }
         let mut reported: BTreeSet<&str> = BTreeSet::new();
         let mut any = false;
         for &start in graph.keys() {
-            if reported.contains(start) {
+            if reported.contains(start) || !left.contains_key(start) {
                 continue;
             }
             // Shortest path from `start` back to itself (breadth first).
@@ -928,6 +970,18 @@ impl<'a> Checker<'a> {
         let kind = block_kind(&decl.name.name);
         let mut stmts = Vec::new();
         let recursive = ctx.calls.iter().any(|(n, _)| *n == decl.name.name);
+        if self.mode == Mode::Expand && ctx.calls.len() >= MAX_CALL_DEPTH && !self.too_large {
+            self.too_large = true;
+            self.diags.push(
+                Diagnostic::error(
+                    "eamos::mission-too-large",
+                    at,
+                    format!("block calls nest more than {MAX_CALL_DEPTH} deep here"),
+                )
+                .with_label("reached while expanding this call")
+                .with_help("flatten the chain of blocks calling blocks"),
+            );
+        }
         if self.mode == Mode::Expand && !recursive && !self.too_large {
             ctx.calls.push((decl.name.name.clone(), at));
             for stmt in &decl.body.stmts {

@@ -40,6 +40,10 @@ pub const CODES: &[(&str, &str)] = &[
         "an unknown escape sequence in a string",
     ),
     (
+        "eamos::too-complex",
+        "a statement with more operators and brackets than the front end checks",
+    ),
+    (
         "eamos::not-a-statement",
         "an expression that runs nothing (`Drone1.Arm` without parentheses)",
     ),
@@ -496,6 +500,7 @@ mod tests {
             include_str!("check.rs"),
             include_str!("lexer.rs"),
             include_str!("parser.rs"),
+            include_str!("lib.rs"),
         ];
         for src in sources {
             for piece in src.split('"').skip(1).step_by(2) {

@@ -46,7 +46,10 @@ pub fn compile(file: &SourceFile, profiles: &ProfileTable) -> Result<Compiled, V
         d.is_error()
             && matches!(
                 d.code,
-                "eamos::syntax" | "eamos::unterminated-comment" | "eamos::unterminated-string"
+                "eamos::syntax"
+                    | "eamos::too-complex"
+                    | "eamos::unterminated-comment"
+                    | "eamos::unterminated-string"
             )
     });
     let (mission, checked) = check::check(&ast, file, profiles, complete);

@@ -56,6 +56,17 @@ pub fn parse(file: &SourceFile) -> (File, Vec<Diagnostic>) {
     let lexed = lex(&file.text);
     let mut diags = lexed.diagnostics;
     let tokens = lexed.tokens;
+    if let Some(d) = too_deep(&tokens) {
+        // The tree of such a statement would be deep enough to exhaust the
+        // stack of every later pass; it is refused before it is built.
+        diags.push(d);
+        let empty = File {
+            package: None,
+            decls: Vec::new(),
+            span: Span::new(0, file.text.len()),
+        };
+        return (empty, diags);
+    }
     let mut recovered: Vec<Recovered> = Vec::new();
     let mut shape_diags = Vec::new();
     let result = grammar::FileParser::new().parse(
@@ -114,6 +125,57 @@ pub fn parse(file: &SourceFile) -> (File, Vec<Diagnostic>) {
     }
     diags.sort_by_key(|d| (d.span.start, d.span.end));
     (ast, diags)
+}
+
+/// How many operators and open brackets one statement may hold. Far beyond
+/// any real condition, far below what would exhaust a thread's stack.
+pub const MAX_STATEMENT_OPERATORS: usize = 256;
+
+/// A statement or declaration with more operators or brackets than
+/// [`MAX_STATEMENT_OPERATORS`], if any.
+fn too_deep(tokens: &[Spanned]) -> Option<Diagnostic> {
+    let mut count = 0usize;
+    let mut start = 0usize;
+    for (l, t, r) in tokens {
+        match t {
+            Tok::Semi { .. } | Tok::LBrace | Tok::RBrace => count = 0,
+            Tok::LParen
+            | Tok::OrOr
+            | Tok::AndAnd
+            | Tok::Not
+            | Tok::EqEq
+            | Tok::NotEq
+            | Tok::Lt
+            | Tok::Le
+            | Tok::Gt
+            | Tok::Ge
+            | Tok::Plus
+            | Tok::Minus
+            | Tok::Star
+            | Tok::Slash
+            | Tok::Dot => {
+                if count == 0 {
+                    start = *l;
+                }
+                count += 1;
+                if count > MAX_STATEMENT_OPERATORS {
+                    return Some(
+                        Diagnostic::error(
+                            "eamos::too-complex",
+                            Span::new(start, *r),
+                            format!(
+                                "this statement holds more than {MAX_STATEMENT_OPERATORS} operators and brackets"
+                            ),
+                        )
+                        .with_label("too long to check")
+                        .with_help("split the expression with constants or into several statements"),
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
 
 struct Context<'a> {

@@ -371,3 +371,25 @@ fn checks_use_the_profiles_handed_in_not_a_built_in_list() {
     };
     assert_eq!(d[0].code, "eamos::unknown-profile");
 }
+
+#[test]
+fn block_calls_nested_too_deep_are_refused_not_overflowing_the_stack() {
+    let mut text = String::from("package M\nvar D Quadcopter\nfunc INIT() {\n\tSEQ_0()\n}\n");
+    for i in 0..5000 {
+        text.push_str(&format!("func SEQ_{i}() {{\n\tSEQ_{}()\n}}\n", i + 1));
+    }
+    text.push_str("func SEQ_5000() {\n\tD.TakePhoto()\n}\n");
+    assert_eq!(codes(&text), ["eamos::mission-too-large"]);
+}
+
+#[test]
+fn expressions_nested_or_chained_beyond_reason_are_refused_not_overflowing_the_stack() {
+    for expr in [
+        format!("{}1{}", "(".repeat(100_000), ")".repeat(100_000)),
+        format!("1{}", "+1".repeat(100_000)),
+        format!("{}1", "- ".repeat(100_000)),
+    ] {
+        let text = format!("package M\nvar D Quadcopter\nfunc INIT() {{\n\tD.FlyByX({expr})\n}}\n");
+        assert_eq!(codes(&text), ["eamos::too-complex"]);
+    }
+}
