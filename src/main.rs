@@ -19,6 +19,7 @@ struct Cli {
 enum Command {
     Build(cmd::build::Args),
     Check(cmd::check::Args),
+    Run(cmd::run::Args),
     SimVehicle(cmd::sim_vehicle::Args),
 }
 
@@ -27,6 +28,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Build(args) => cmd::build::run(args),
         Command::Check(args) => cmd::check::run(args),
+        Command::Run(args) => cmd::run::run(args),
         Command::SimVehicle(args) => cmd::sim_vehicle::run(args),
     }
 }

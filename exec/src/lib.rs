@@ -1,5 +1,21 @@
 //! The token-passing executor: runs one slice on one drone, starting actions
 //! through the middle layer and passing tokens over bridges (in-process
 //! channels or zenoh).
+//!
+//! - [`transport`]: links between peers and exactly-once bridges over them.
+//! - [`executor`]: the token game of one slice, played with a real adapter.
+//! - [`guard`]: conditions evaluated over drones' telemetry.
+//! - [`log`]: the per-drone mission, uniform and adapter logs.
+//! - [`fleet`]: the fleet file (adapters, homes, endpoints).
+//! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
+//! - [`svg`]: the plot of every drone's path.
 
+pub mod executor;
+pub mod fleet;
+pub mod guard;
+pub mod log;
+pub mod runner;
+pub mod svg;
 pub mod transport;
+
+pub use executor::{Agent, Executor, ExecutorOptions, Outcome, Progress, ProgressKind, Report};

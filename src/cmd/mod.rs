@@ -3,4 +3,5 @@
 
 pub mod build;
 pub mod check;
+pub mod run;
 pub mod sim_vehicle;

@@ -1,0 +1,983 @@
+//! The executor of one slice: the token game of one drone (or of the ground
+//! station), played for real.
+//!
+//! It keeps the marking of the slice's places and fires what is enabled,
+//! eagerly, until nothing more can fire; then it waits, without polling, for
+//! whatever can change that: an action reporting its end, a token arriving
+//! over a bridge, telemetry of a drone its guards read, the timer of a
+//! `PauseFor`, the mission time limit. The binding colour of a firing is
+//! the longest colour among its input tokens, as in the reference token game
+//! (`eamos_petri::game`).
+//!
+//! Actions run concurrently through the drone's adapter: an `ActionStart`
+//! starts one and moves on, its `ActionEnd` becomes enabled when the adapter
+//! reports success, and an `ActionCancel` (fired when an interrupted `Do`
+//! skips the action) cancels it. An action instance is started at most once
+//! per colour, whatever the net or the network does.
+//!
+//! Two control messages travel besides the slice's bridges: `end`, sent by
+//! the slice that marks the final place to every other peer, and `abort`,
+//! sent by a drone whose action failed. Both are delivered exactly once like
+//! any token.
+
+use std::collections::{HashMap, HashSet};
+use std::sync::Arc;
+use std::time::Duration;
+
+use tokio::sync::{mpsc, watch};
+use tokio_util::sync::CancellationToken;
+
+use eamos_lang::SourceFile;
+use eamos_mid::{ActionCall, ActionError, Adapter, MissionClock, Telemetry};
+use eamos_petri::net::{Colour, Guard, TransitionKind};
+use eamos_slicer::Slice;
+
+use crate::guard::World;
+use crate::log::{DroneLog, MissionEvent};
+use crate::transport::reliable::{BridgeStats, Bridges, Delivered};
+use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
+
+/// The bridge name of the "mission has ended" notice.
+pub const END: &str = "end";
+/// The bridge name of the "a drone failed, land" notice.
+pub const ABORT: &str = "abort";
+
+/// How one executor behaves around the token game.
+#[derive(Clone)]
+pub struct ExecutorOptions {
+    /// Mission seconds after the executor starts at which every branch
+    /// stops and the drone lands.
+    pub max_duration: Option<f64>,
+    /// How long the ground station waits for its peers before it fires the
+    /// start (wall time).
+    pub startup_timeout: Duration,
+    /// How long to wait for the acknowledgement of the last tokens before
+    /// giving up on a peer that has gone (wall time).
+    pub flush_timeout: Duration,
+    /// Every peer of the mission: the `end` and `abort` notices go to all.
+    pub peers: Vec<PeerId>,
+    /// The mission text, to name lines in what the executor reports.
+    pub source: Option<Arc<SourceFile>>,
+    /// Live progress for a terminal.
+    pub progress: Option<mpsc::UnboundedSender<Progress>>,
+    /// Stops the executor from outside (Ctrl-C): the drone lands.
+    pub stop: CancellationToken,
+}
+
+impl Default for ExecutorOptions {
+    fn default() -> Self {
+        ExecutorOptions {
+            max_duration: None,
+            startup_timeout: Duration::from_secs(30),
+            flush_timeout: Duration::from_secs(10),
+            peers: Vec::new(),
+            source: None,
+            progress: None,
+            stop: CancellationToken::new(),
+        }
+    }
+}
+
+/// Something a person watching the run wants to see.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    pub drone: String,
+    pub time: f64,
+    pub what: ProgressKind,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub enum ProgressKind {
+    ActionStarted(String),
+    ActionFinished(String),
+    Sent,
+    Received,
+    Waiting(String),
+    Ended(String),
+}
+
+/// How a run of one slice ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// The final place was marked (here or at a peer).
+    Completed,
+    /// The mission time limit expired; what was still waiting, and on what.
+    TimeLimit { waiting: Vec<String> },
+    /// An action failed here, or a peer reported one.
+    Failed { reason: String },
+    /// Stopped from outside.
+    Stopped,
+}
+
+/// What one executor did: the numbers of the paper's Table 7 and more.
+#[derive(Debug, Clone)]
+pub struct Report {
+    pub drone: String,
+    pub outcome: Outcome,
+    /// Actions that ended successfully.
+    pub actions: u32,
+    pub actions_cancelled: u32,
+    /// Bridge tokens sent and received (the `end`/`abort` notices excluded).
+    pub sent: u64,
+    pub received: u64,
+    pub bridges: BridgeStats,
+    /// Mission time of this slice's first firing (or of the executor's
+    /// start if nothing fired) and of its stop.
+    pub started: f64,
+    pub ended: f64,
+    /// Every action run, with its colour, in start order.
+    pub started_actions: Vec<(u32, Colour)>,
+    /// Tokens not acknowledged when the executor gave up waiting.
+    pub unacked: usize,
+}
+
+impl Report {
+    pub fn duration(&self) -> f64 {
+        (self.ended - self.started).max(0.0)
+    }
+}
+
+/// What one slice needs to run.
+pub struct Agent {
+    pub slice: Slice,
+    /// The drone's adapter (wrapped in the uniform layer); `None` for the
+    /// ground station.
+    pub drone: Option<Arc<dyn Adapter>>,
+    pub clock: MissionClock,
+    pub bridges: Arc<Bridges>,
+    pub delivered: mpsc::UnboundedReceiver<Delivered>,
+    /// The link, to publish this drone's telemetry on.
+    pub link: Arc<dyn Link>,
+    /// Telemetry of the drones this slice's guards read.
+    pub telemetry: mpsc::UnboundedReceiver<TelemetryFrame>,
+    pub log: DroneLog,
+}
+
+struct Finished {
+    instance: u32,
+    colour: Colour,
+    action: String,
+    result: Result<(), ActionError>,
+}
+
+pub struct Executor {
+    slice: Slice,
+    drone: Option<Arc<dyn Adapter>>,
+    clock: MissionClock,
+    bridges: Arc<Bridges>,
+    delivered: mpsc::UnboundedReceiver<Delivered>,
+    link: Arc<dyn Link>,
+    telemetry: mpsc::UnboundedReceiver<TelemetryFrame>,
+    log: DroneLog,
+    options: ExecutorOptions,
+
+    /// Tokens per local place (1-safe: at most one, kept as a list so that
+    /// a compiler bug shows up in the log instead of losing a token).
+    marking: Vec<Vec<Colour>>,
+    /// Transitions consuming or reading each place.
+    consumers: Vec<Vec<u32>>,
+    /// Bridge id to inbox place.
+    inboxes: HashMap<u32, u32>,
+    world: World,
+    /// Latest telemetry sequence seen per remote drone.
+    telemetry_seq: HashMap<String, u64>,
+    /// Whether a guard here reads this drone's own state.
+    reads_own: bool,
+    own_index: Option<u16>,
+    running: HashMap<(u32, Colour), CancellationToken>,
+    succeeded: HashSet<(u32, Colour)>,
+    started_actions: HashSet<(u32, Colour)>,
+    started_order: Vec<(u32, Colour)>,
+    finished_tx: mpsc::UnboundedSender<Finished>,
+    finished_rx: mpsc::UnboundedReceiver<Finished>,
+    /// When each timed transition became enabled (mission time).
+    enabled_since: HashMap<(u32, Colour), f64>,
+    /// Guards already logged as waiting.
+    waiting_logged: HashSet<(u32, Colour)>,
+    actions: u32,
+    actions_cancelled: u32,
+    sent: u64,
+    received: u64,
+    ended: Option<Outcome>,
+    first_firing: Option<f64>,
+}
+
+impl Executor {
+    pub fn new(agent: Agent, options: ExecutorOptions) -> Self {
+        let slice = agent.slice;
+        let mut consumers = vec![Vec::new(); slice.places.len()];
+        for (i, t) in slice.transitions.iter().enumerate() {
+            for &p in t.consume.iter().chain(&t.read) {
+                consumers[p as usize].push(i as u32);
+            }
+        }
+        for c in &mut consumers {
+            c.sort();
+            c.dedup();
+        }
+        let inboxes = slice.bridges_in.iter().map(|b| (b.id, b.inbox)).collect();
+        let own_index = slice
+            .drones
+            .iter()
+            .position(|d| *d == slice.drone)
+            .map(|i| i as u16);
+        let reads_own = own_index.is_some_and(|me| {
+            slice.transitions.iter().any(|t| {
+                t.transition
+                    .guard
+                    .as_ref()
+                    .is_some_and(|g| g.drones().iter().any(|d| d.0 == me))
+            })
+        });
+        let mut marking = vec![Vec::new(); slice.places.len()];
+        for &p in &slice.initial_marking {
+            if marking[p as usize].is_empty() {
+                marking[p as usize].push(Vec::new());
+            }
+        }
+        let (finished_tx, finished_rx) = mpsc::unbounded_channel();
+        Executor {
+            world: World::new(slice.drones.clone()),
+            slice,
+            drone: agent.drone,
+            clock: agent.clock,
+            bridges: agent.bridges,
+            delivered: agent.delivered,
+            link: agent.link,
+            telemetry: agent.telemetry,
+            log: agent.log,
+            options,
+            marking,
+            consumers,
+            inboxes,
+            telemetry_seq: HashMap::new(),
+            reads_own,
+            own_index,
+            running: HashMap::new(),
+            succeeded: HashSet::new(),
+            started_actions: HashSet::new(),
+            started_order: Vec::new(),
+            finished_tx,
+            finished_rx,
+            enabled_since: HashMap::new(),
+            waiting_logged: HashSet::new(),
+            actions: 0,
+            actions_cancelled: 0,
+            sent: 0,
+            received: 0,
+            ended: None,
+            first_firing: None,
+        }
+    }
+
+    fn me(&self) -> &str {
+        &self.slice.drone
+    }
+
+    fn now(&self) -> f64 {
+        self.clock.now()
+    }
+
+    fn note(&self, event: MissionEvent) {
+        self.log.mission(self.now(), event);
+    }
+
+    fn progress(&self, what: ProgressKind) {
+        if let Some(p) = &self.options.progress {
+            let _ = p.send(Progress {
+                drone: self.me().to_string(),
+                time: self.now(),
+                what,
+            });
+        }
+    }
+
+    /// Plays the slice until the mission ends, the time limit expires, an
+    /// action fails or the executor is stopped.
+    pub async fn run(mut self) -> Report {
+        let started = self.now();
+        self.note(MissionEvent::Started {
+            mission: self.slice.mission.clone(),
+            mission_id: self.slice.mission_id.clone(),
+            places: self.slice.places.len(),
+            transitions: self.slice.transitions.len(),
+            bridges_in: self.slice.bridges_in.len(),
+            bridges_out: self.slice.bridges_out.len(),
+        });
+        let publisher = CancellationToken::new();
+        let mut own: Option<watch::Receiver<Telemetry>> = None;
+        if let Some(drone) = &self.drone {
+            let rx = drone.telemetry();
+            tokio::spawn(publish_telemetry(
+                self.link.clone(),
+                self.slice.mission_id.clone(),
+                self.me().to_string(),
+                rx.clone(),
+                publisher.clone(),
+            ));
+            if let Some(i) = self.own_index {
+                self.world.set(i, *rx.borrow());
+            }
+            if self.reads_own {
+                own = Some(rx);
+            }
+        }
+
+        if self.me() == GCS {
+            let others: Vec<PeerId> = self
+                .options
+                .peers
+                .iter()
+                .filter(|p| p.as_str() != GCS)
+                .cloned()
+                .collect();
+            let wait = self
+                .link
+                .wait_for_peers(&others, self.options.startup_timeout);
+            tokio::select! {
+                r = wait => if let Err(e) = r {
+                    self.ended = Some(Outcome::Failed { reason: format!("cannot start: {e}") });
+                },
+                _ = self.options.stop.cancelled() => self.ended = Some(Outcome::Stopped),
+            }
+        }
+
+        let deadline = self.options.max_duration.map(|d| started + d);
+        while self.ended.is_none() {
+            self.fire_until_quiescent();
+            if self.ended.is_some() {
+                break;
+            }
+            let next_timer = self.next_timer();
+            let clock = self.clock.clone();
+            let stop = self.options.stop.clone();
+            tokio::select! {
+                Some(f) = self.finished_rx.recv() => self.on_finished(f),
+                d = self.delivered.recv() => match d {
+                    Some(d) => self.on_delivered(d),
+                    None => self.ended = Some(Outcome::Failed { reason: "the transport closed".into() }),
+                },
+                Some(t) = self.telemetry.recv() => self.on_telemetry(t),
+                changed = changed(&mut own) => {
+                    if changed {
+                        if let (Some(i), Some(rx)) = (self.own_index, own.as_mut()) {
+                            let t = *rx.borrow_and_update();
+                            self.world.set(i, t);
+                        }
+                    } else {
+                        own = None;
+                    }
+                }
+                _ = sleep_until(&clock, next_timer) => {}
+                _ = sleep_until(&clock, deadline) => {
+                    let waiting = self.waiting();
+                    self.note(MissionEvent::TimeLimit { waiting: waiting.clone() });
+                    self.ended = Some(Outcome::TimeLimit { waiting });
+                }
+                _ = stop.cancelled() => self.ended = Some(Outcome::Stopped),
+            }
+        }
+        let outcome = self.ended.clone().unwrap_or(Outcome::Stopped);
+
+        if !matches!(outcome, Outcome::Completed) {
+            self.cancel_all();
+            self.land().await;
+        }
+        publisher.cancel();
+        let unacked = self.bridges.flush(self.options.flush_timeout).await;
+        let reason = match &outcome {
+            Outcome::Completed => "completed".to_string(),
+            Outcome::TimeLimit { .. } => "time limit".to_string(),
+            Outcome::Failed { reason } => format!("failed: {reason}"),
+            Outcome::Stopped => "stopped".to_string(),
+        };
+        self.note(MissionEvent::Stopped {
+            reason: reason.clone(),
+        });
+        self.progress(ProgressKind::Ended(reason));
+        Report {
+            drone: self.me().to_string(),
+            outcome,
+            actions: self.actions,
+            actions_cancelled: self.actions_cancelled,
+            sent: self.sent,
+            received: self.received,
+            bridges: self.bridges.stats(),
+            started: self.first_firing.unwrap_or(started),
+            ended: self.now(),
+            started_actions: self.started_order.clone(),
+            unacked,
+        }
+    }
+
+    /// The binding colour of `t` if all its input places are marked.
+    fn token_enabled(&self, t: u32) -> Option<Colour> {
+        let st = &self.slice.transitions[t as usize];
+        let mut colour: &Colour = &EMPTY;
+        for &p in st.consume.iter().chain(&st.read) {
+            let c = self.marking[p as usize].first()?;
+            if c.len() > colour.len() {
+                colour = c;
+            }
+        }
+        Some(colour.clone())
+    }
+
+    /// Whether `t` may fire now with `colour`, all things considered.
+    fn may_fire(&mut self, t: u32, colour: &Colour) -> bool {
+        let now = self.now();
+        let st = &self.slice.transitions[t as usize];
+        match &st.transition.kind {
+            TransitionKind::ActionEnd(a)
+                if !self.succeeded.contains(&(a.instance, colour.clone())) =>
+            {
+                return false;
+            }
+            TransitionKind::ActionStart(a)
+                if self.started_actions.contains(&(a.instance, colour.clone())) =>
+            {
+                // Never the same action twice for one colour: a net that
+                // asks for it is broken, and flying it twice is worse.
+                return false;
+            }
+            _ => {}
+        }
+        let delay = st.transition.delay;
+        if let Some(g) = st.transition.guard.clone() {
+            if !self.guard_holds(t, &g, colour) {
+                return false;
+            }
+        }
+        if let Some(delay) = delay {
+            let since = *self.enabled_since.entry((t, colour.clone())).or_insert(now);
+            if now < since + delay {
+                return false;
+            }
+        }
+        true
+    }
+
+    fn guard_holds(&mut self, t: u32, g: &Guard, colour: &Colour) -> bool {
+        if let Some(v) = g.holds_on_colour(colour) {
+            return v;
+        }
+        let Some((cond, _)) = g.condition() else {
+            return false;
+        };
+        let (value, reason) = match self.world.holds(cond) {
+            Ok(v) => (g.holds_when(v), "false now".to_string()),
+            Err(e) => (false, e.to_string()),
+        };
+        if !value && self.waiting_logged.insert((t, colour.clone())) {
+            let st = &self.slice.transitions[t as usize];
+            let condition = self.guard_text(g);
+            self.note(MissionEvent::ConditionWaiting {
+                transition: st.transition.id.clone(),
+                condition: condition.clone(),
+                reason,
+            });
+            self.progress(ProgressKind::Waiting(condition));
+        }
+        value
+    }
+
+    fn guard_text(&self, g: &Guard) -> String {
+        match g.condition() {
+            Some((cond, negated)) => {
+                let text = eamos_petri::pretty::expr(cond, &self.slice.drones);
+                if negated {
+                    format!("!({text})")
+                } else {
+                    text
+                }
+            }
+            None => format!("{:?}", g.kind),
+        }
+    }
+
+    /// Fires enabled transitions until none is left.
+    fn fire_until_quiescent(&mut self) {
+        loop {
+            if self.ended.is_some() {
+                return;
+            }
+            let mut candidates: Vec<u32> = self
+                .marking
+                .iter()
+                .enumerate()
+                .filter(|(_, tokens)| !tokens.is_empty())
+                .flat_map(|(p, _)| self.consumers[p].iter().copied())
+                .collect();
+            candidates.sort();
+            candidates.dedup();
+            let mut fired = false;
+            for t in candidates {
+                let Some(colour) = self.token_enabled(t) else {
+                    continue;
+                };
+                if self.may_fire(t, &colour) {
+                    self.fire(t, colour);
+                    fired = true;
+                    break;
+                }
+            }
+            if !fired {
+                return;
+            }
+        }
+    }
+
+    fn fire(&mut self, t: u32, colour: Colour) {
+        let st = self.slice.transitions[t as usize].clone();
+        for &p in &st.consume {
+            let tokens = &mut self.marking[p as usize];
+            if !tokens.is_empty() {
+                tokens.remove(0);
+            }
+        }
+        for pr in &st.produce {
+            let c = pr.colour.apply(&colour);
+            let tokens = &mut self.marking[pr.place as usize];
+            if !tokens.is_empty() {
+                tracing::error!(
+                    "{}: firing {} puts a second token in place {}: the net is not 1-safe (a compiler bug)",
+                    self.slice.drone,
+                    st.transition.id,
+                    self.slice.places[pr.place as usize].id
+                );
+            }
+            tokens.push(c);
+        }
+        self.enabled_since.remove(&(t, colour.clone()));
+        if self.first_firing.is_none() {
+            self.first_firing = Some(self.now());
+        }
+        self.note(MissionEvent::Fired {
+            transition: st.transition.id.clone(),
+            label: st.transition.label.clone(),
+            kind: kind_name(&st.transition.kind).to_string(),
+            colour: colour.clone(),
+        });
+        let outs: Vec<_> = self.slice.sends(t).cloned().collect();
+        for b in outs {
+            let c = b.colour.apply(&colour);
+            let seq = self.bridges.send(&b.to, &b.id.to_string(), c.clone());
+            self.sent += 1;
+            self.note(MissionEvent::BridgeSent {
+                bridge: b.id,
+                to: b.to.clone(),
+                colour: c,
+                seq,
+            });
+            self.progress(ProgressKind::Sent);
+        }
+        match &st.transition.kind {
+            TransitionKind::ActionStart(a) => self.start_action(a, colour),
+            TransitionKind::ActionEnd(a) => {
+                self.succeeded.remove(&(a.instance, colour.clone()));
+                self.running.remove(&(a.instance, colour));
+                self.actions += 1;
+            }
+            TransitionKind::ActionCancel(a) => {
+                let key = (a.instance, colour.clone());
+                let token = self.running.remove(&key);
+                if self.succeeded.remove(&key) {
+                    // It ended just as it was interrupted: it did run.
+                    self.actions += 1;
+                } else if let Some(token) = token {
+                    token.cancel();
+                    self.actions_cancelled += 1;
+                    self.note(MissionEvent::ActionCancelled {
+                        action: a.name.clone(),
+                        instance: a.instance,
+                        colour,
+                    });
+                }
+            }
+            _ => {}
+        }
+        if let Some(f) = self.slice.final_place {
+            if !self.marking[f as usize].is_empty() && self.ended.is_none() {
+                self.note(MissionEvent::MissionEnded {
+                    by: self.me().to_string(),
+                });
+                let me = self.me().to_string();
+                for p in self.options.peers.iter().filter(|p| **p != me) {
+                    self.bridges.send(p, END, Vec::new());
+                }
+                self.ended = Some(Outcome::Completed);
+            }
+        }
+    }
+
+    fn start_action(&mut self, a: &eamos_petri::net::ActionRef, colour: Colour) {
+        let key = (a.instance, colour.clone());
+        self.started_actions.insert(key.clone());
+        self.started_order.push(key.clone());
+        let call = ActionCall::new(a.name.clone(), a.args.clone());
+        self.note(MissionEvent::ActionStarted {
+            action: a.name.clone(),
+            args: a.args.clone(),
+            instance: a.instance,
+            colour: colour.clone(),
+        });
+        self.progress(ProgressKind::ActionStarted(call.to_string()));
+        let token = CancellationToken::new();
+        self.running.insert(key, token.clone());
+        let done = self.finished_tx.clone();
+        let instance = a.instance;
+        let action = call.to_string();
+        match self.drone.clone() {
+            Some(drone) => {
+                tokio::spawn(async move {
+                    let result = drone.run(&call, token).await;
+                    let _ = done.send(Finished {
+                        instance,
+                        colour,
+                        action,
+                        result,
+                    });
+                });
+            }
+            None => {
+                let _ = done.send(Finished {
+                    instance,
+                    colour,
+                    action: action.clone(),
+                    result: Err(ActionError::Unsupported { action }),
+                });
+            }
+        }
+    }
+
+    fn on_finished(&mut self, f: Finished) {
+        let key = (f.instance, f.colour.clone());
+        let cancelled_by_us = !self.running.contains_key(&key);
+        let (outcome, error) = match &f.result {
+            Ok(()) => ("ok".to_string(), None),
+            Err(e) => (e.kind().to_string(), Some(e.to_string())),
+        };
+        self.note(MissionEvent::ActionFinished {
+            action: f.action.clone(),
+            instance: f.instance,
+            colour: f.colour.clone(),
+            outcome,
+            error: error.clone(),
+        });
+        self.progress(ProgressKind::ActionFinished(f.action.clone()));
+        match f.result {
+            Ok(()) => {
+                if !cancelled_by_us {
+                    self.succeeded.insert(key);
+                }
+            }
+            Err(_) if cancelled_by_us => {}
+            Err(e) => {
+                self.running.remove(&key);
+                let reason = format!("{}: {e}", self.me());
+                let me = self.me().to_string();
+                for p in self.options.peers.iter().filter(|p| **p != me) {
+                    self.bridges.send(p, ABORT, Vec::new());
+                }
+                self.ended = Some(Outcome::Failed { reason });
+            }
+        }
+    }
+
+    fn on_delivered(&mut self, d: Delivered) {
+        match d.bridge.as_str() {
+            END => {
+                self.note(MissionEvent::MissionEnded { by: d.from });
+                self.ended = Some(Outcome::Completed);
+                return;
+            }
+            ABORT => {
+                self.ended = Some(Outcome::Failed {
+                    reason: format!("{} aborted the mission", d.from),
+                });
+                return;
+            }
+            _ => {}
+        }
+        let Some(id) = d.bridge.parse::<u32>().ok() else {
+            tracing::warn!("{}: token on unknown bridge `{}`", self.me(), d.bridge);
+            return;
+        };
+        let Some(&inbox) = self.inboxes.get(&id) else {
+            tracing::warn!("{}: token on bridge {id}, which is not ours", self.me());
+            return;
+        };
+        self.received += 1;
+        self.note(MissionEvent::BridgeReceived {
+            bridge: id,
+            from: d.from,
+            colour: d.colour.clone(),
+            seq: d.seq,
+        });
+        self.progress(ProgressKind::Received);
+        let tokens = &mut self.marking[inbox as usize];
+        if !tokens.is_empty() {
+            tracing::error!(
+                "{}: bridge {id} delivers a second token into {}: the net is not 1-safe",
+                self.slice.drone,
+                self.slice.places[inbox as usize].id
+            );
+        }
+        tokens.push(d.colour);
+    }
+
+    fn on_telemetry(&mut self, t: TelemetryFrame) {
+        if t.mission != self.slice.mission_id {
+            return;
+        }
+        let last = self.telemetry_seq.entry(t.drone.clone()).or_insert(0);
+        if t.seq <= *last {
+            return;
+        }
+        *last = t.seq;
+        let Some(i) = self.world.index(&t.drone) else {
+            return;
+        };
+        match postcard::from_bytes::<Telemetry>(&t.body) {
+            Ok(tel) => self.world.set(i, tel),
+            Err(e) => tracing::warn!("{}: bad telemetry from {}: {e}", self.me(), t.drone),
+        }
+    }
+
+    /// The earliest mission time at which a timed transition becomes due.
+    fn next_timer(&self) -> Option<f64> {
+        self.enabled_since
+            .iter()
+            .filter_map(|((t, colour), since)| {
+                let st = &self.slice.transitions[*t as usize];
+                let still = self.token_enabled(*t).as_ref() == Some(colour);
+                still.then(|| since + st.transition.delay.unwrap_or(0.0))
+            })
+            .min_by(f64::total_cmp)
+    }
+
+    fn cancel_all(&mut self) {
+        for (_, token) in self.running.drain() {
+            token.cancel();
+        }
+    }
+
+    /// Lands the drone if it is in the air (time limit, failure, stop).
+    async fn land(&mut self) {
+        let Some(drone) = self.drone.clone() else {
+            return;
+        };
+        let airborne = !drone.telemetry().borrow().landed;
+        if !airborne {
+            return;
+        }
+        let call = ActionCall::new("Land", Vec::<f64>::new());
+        self.note(MissionEvent::ActionStarted {
+            action: "Land".into(),
+            args: vec![],
+            instance: u32::MAX,
+            colour: vec![],
+        });
+        let result = tokio::time::timeout(
+            Duration::from_secs(120),
+            drone.run(&call, CancellationToken::new()),
+        )
+        .await
+        .unwrap_or_else(|_| {
+            Err(ActionError::Timeout {
+                action: "Land".into(),
+                what: "touchdown".into(),
+            })
+        });
+        let (outcome, error) = match &result {
+            Ok(()) => ("ok".to_string(), None),
+            Err(e) => (e.kind().to_string(), Some(e.to_string())),
+        };
+        self.note(MissionEvent::ActionFinished {
+            action: "Land".into(),
+            instance: u32::MAX,
+            colour: vec![],
+            outcome,
+            error,
+        });
+    }
+
+    /// What the slice is waiting for: transitions that have their tokens
+    /// but whose condition is false (or undecided), transitions that lack
+    /// only a token from a peer, actions still running, pauses still
+    /// counting.
+    pub fn waiting(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let at = |t: &eamos_slicer::SliceTransition| match &self.options.source {
+            Some(src) => format!(" at {}", src.location(t.transition.span)),
+            None => String::new(),
+        };
+        let mut seen = HashSet::new();
+        for (p, tokens) in self.marking.iter().enumerate() {
+            if tokens.is_empty() {
+                continue;
+            }
+            for &t in &self.consumers[p] {
+                if !seen.insert(t) {
+                    continue;
+                }
+                let st = &self.slice.transitions[t as usize];
+                let inputs: Vec<u32> = st.consume.iter().chain(&st.read).copied().collect();
+                let missing: Vec<u32> = inputs
+                    .iter()
+                    .copied()
+                    .filter(|q| self.marking[*q as usize].is_empty())
+                    .collect();
+                if missing.is_empty() {
+                    let colour = self.token_enabled(t).unwrap_or_default();
+                    if let TransitionKind::ActionEnd(a) = &st.transition.kind {
+                        out.push(format!(
+                            "{}: action {}.{} still running{}",
+                            self.me(),
+                            self.slice.drones[a.drone.0 as usize],
+                            ActionCall::new(a.name.clone(), a.args.clone()),
+                            at(st)
+                        ));
+                        continue;
+                    }
+                    if let Some(g) = &st.transition.guard {
+                        if g.condition().is_some() {
+                            let state = match g.condition().map(|(c, _)| self.world.holds(c)) {
+                                Some(Ok(v)) if !g.holds_when(v) => "false".to_string(),
+                                Some(Ok(_)) => "true".to_string(),
+                                Some(Err(e)) => format!("undecided: {e}"),
+                                None => String::new(),
+                            };
+                            if state != "true" {
+                                let cond = self.guard_text(g);
+                                let what = if st.transition.label.contains(&cond) {
+                                    "its condition".to_string()
+                                } else {
+                                    format!("`{cond}`")
+                                };
+                                out.push(format!(
+                                    "{}: `{}` ({}){} has its tokens and waits for {what} ({state} now)",
+                                    self.me(),
+                                    st.transition.label,
+                                    st.transition.id,
+                                    at(st),
+                                ));
+                            }
+                            continue;
+                        }
+                    }
+                    if let Some(delay) = st.transition.delay {
+                        let since = self
+                            .enabled_since
+                            .get(&(t, colour))
+                            .copied()
+                            .unwrap_or(self.now());
+                        out.push(format!(
+                            "{}: `{}` ({}){} pauses, {:.1} s left",
+                            self.me(),
+                            st.transition.label,
+                            st.transition.id,
+                            at(st),
+                            (since + delay - self.now()).max(0.0)
+                        ));
+                    }
+                } else {
+                    let from_peers: Vec<String> = missing
+                        .iter()
+                        .filter_map(|q| {
+                            self.slice
+                                .bridges_in
+                                .iter()
+                                .find(|b| b.inbox == *q)
+                                .map(|b| format!("{} (bridge {})", b.from, b.id))
+                        })
+                        .collect();
+                    if !from_peers.is_empty() && from_peers.len() == missing.len() {
+                        out.push(format!(
+                            "{}: `{}` ({}){} waits for a bridge message from {}",
+                            self.me(),
+                            st.transition.label,
+                            st.transition.id,
+                            at(st),
+                            from_peers.join(", ")
+                        ));
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+static EMPTY: Colour = Vec::new();
+
+/// A stable short name of a transition kind for the log.
+pub fn kind_name(k: &TransitionKind) -> &'static str {
+    match k {
+        TransitionKind::Init => "init",
+        TransitionKind::ActionStart(_) => "action_start",
+        TransitionKind::ActionEnd(_) => "action_end",
+        TransitionKind::ActionCancel(_) => "action_cancel",
+        TransitionKind::Skip => "skip",
+        TransitionKind::Fork => "fork",
+        TransitionKind::Join => "join",
+        TransitionKind::Branch => "branch",
+        TransitionKind::Merge => "merge",
+        TransitionKind::LoopBack => "loop_back",
+        TransitionKind::Pause => "pause",
+        TransitionKind::Signal => "signal",
+        TransitionKind::Await => "await",
+        TransitionKind::Interrupt => "interrupt",
+        TransitionKind::Finish => "finish",
+        TransitionKind::Silent => "silent",
+    }
+}
+
+async fn changed(rx: &mut Option<watch::Receiver<Telemetry>>) -> bool {
+    match rx {
+        Some(rx) => rx.changed().await.is_ok(),
+        None => std::future::pending().await,
+    }
+}
+
+async fn sleep_until(clock: &MissionClock, t: Option<f64>) {
+    match t {
+        Some(t) => clock.sleep_until(t).await,
+        None => std::future::pending().await,
+    }
+}
+
+/// Publishes this drone's telemetry for the remote conditions that read
+/// it: on every change, at most every few milliseconds of wall time, and
+/// again now and then so that a peer that joins late learns the state of a
+/// drone that does not move.
+async fn publish_telemetry(
+    link: Arc<dyn Link>,
+    mission: String,
+    drone: String,
+    mut rx: watch::Receiver<Telemetry>,
+    stop: CancellationToken,
+) {
+    let mut seq = 0u64;
+    let mut heartbeat = tokio::time::interval(Duration::from_millis(250));
+    heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    loop {
+        tokio::select! {
+            _ = stop.cancelled() => return,
+            r = rx.changed() => if r.is_err() { return },
+            _ = heartbeat.tick() => {}
+        }
+        let t = *rx.borrow_and_update();
+        seq += 1;
+        let frame = TelemetryFrame {
+            mission: mission.clone(),
+            drone: drone.clone(),
+            seq,
+            body: postcard::to_stdvec(&t).expect("telemetry serialises"),
+        };
+        if let Err(e) = link.publish_telemetry(&frame).await {
+            tracing::debug!("{drone}: telemetry not published: {e}");
+        }
+        tokio::time::sleep(Duration::from_millis(10)).await;
+    }
+}

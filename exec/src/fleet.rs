@@ -1,0 +1,401 @@
+//! The fleet file: which adapter flies which drone of a mission, where each
+//! drone's home is, and how the peers (drones' agents and the ground
+//! station) reach each other over zenoh.
+//!
+//! ```toml
+//! [zenoh]
+//! scouting = false                 # multicast scouting (off by default)
+//!
+//! [sim]                            # simulator settings (optional)
+//! step = 0.02
+//!
+//! [gcs]
+//! listen = ["tcp/127.0.0.1:7447"]  # zenoh endpoints of the ground station
+//!
+//! [drones.D1]
+//! adapter = "sim"                  # the default
+//! home = { x = 0.0, y = 0.0, z = 0.0 }
+//!
+//! [drones.D3]
+//! home = { x = 0.0, y = 4.0, z = 0.0 }
+//! script = { legs = [{ leg = "go_to", x = -15.0, y = -10.0, z = 5.0, speed = 5.0 }] }
+//!
+//! [drones.D4]
+//! adapter = "mavlink"
+//! connection = "udpin:0.0.0.0:14550"
+//! listen = ["tcp/192.168.1.14:7447"]
+//! ```
+//!
+//! A drone the file does not name is simulated, at a home of its own (see
+//! [`default_home`]). A peer without `listen` endpoints listens on a
+//! loopback port derived from the mission and the peer (see
+//! [`loopback_port`]); every peer connects to every other peer's endpoints
+//! unless it lists its own `connect` endpoints.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use serde::Deserialize;
+
+use eamos_mid::sim::kinematics::MultirotorConfig;
+use eamos_mid::sim::script::Script;
+use eamos_mid::sim::{SimConfig, SimDroneSpec};
+use eamos_mid::Vec3;
+
+use crate::transport::zenoh::ZenohOptions;
+use crate::transport::GCS;
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fleet {
+    #[serde(default)]
+    pub zenoh: ZenohSettings,
+    /// Simulator settings; `--speed` overrides the speed.
+    #[serde(default)]
+    pub sim: Option<SimConfig>,
+    #[serde(default)]
+    pub gcs: PeerNet,
+    #[serde(default)]
+    pub drones: BTreeMap<String, DroneEntry>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ZenohSettings {
+    #[serde(default)]
+    pub scouting: bool,
+}
+
+/// How one peer joins the zenoh network.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PeerNet {
+    #[serde(default)]
+    pub listen: Vec<String>,
+    #[serde(default)]
+    pub connect: Vec<String>,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AdapterKind {
+    #[default]
+    Sim,
+    Mavlink,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DroneEntry {
+    #[serde(default)]
+    pub adapter: AdapterKind,
+    /// Home in the fleet frame (metres north, east, up of a common origin).
+    #[serde(default)]
+    pub home: Option<Vec3>,
+    /// The simulated airframe (sim only).
+    #[serde(default)]
+    pub vehicle: Option<MultirotorConfig>,
+    /// A scripted pilot (sim only).
+    #[serde(default)]
+    pub script: Option<Script>,
+    /// MAVLink connection (`udpin:0.0.0.0:14550`, `tcpout:...`, serial).
+    #[serde(default)]
+    pub connection: Option<String>,
+    #[serde(default)]
+    pub listen: Vec<String>,
+    #[serde(default)]
+    pub connect: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum FleetError {
+    #[error("cannot read fleet file {path}: {error}")]
+    Read { path: String, error: String },
+    /// The TOML error names line and column.
+    #[error("{path}: {error}")]
+    Parse { path: String, error: String },
+    #[error("{path}: drone `{drone}` is not a drone of mission {mission} (its drones: {known})")]
+    UnknownDrone {
+        path: String,
+        drone: String,
+        mission: String,
+        known: String,
+    },
+    #[error("{path}: drone `{drone}`: {problem}")]
+    Drone {
+        path: String,
+        drone: String,
+        problem: String,
+    },
+}
+
+impl Fleet {
+    /// Reads and checks a fleet file against the mission's drones.
+    pub fn load(path: &Path, mission: &str, drones: &[String]) -> Result<Fleet, FleetError> {
+        let text = std::fs::read_to_string(path).map_err(|e| FleetError::Read {
+            path: path.display().to_string(),
+            error: e.to_string(),
+        })?;
+        Fleet::parse(&text, &path.display().to_string(), mission, drones)
+    }
+
+    /// Parses fleet text; `name` is what errors call the file.
+    pub fn parse(
+        text: &str,
+        name: &str,
+        mission: &str,
+        drones: &[String],
+    ) -> Result<Fleet, FleetError> {
+        let fleet: Fleet = toml::from_str(text).map_err(|e| FleetError::Parse {
+            path: name.to_string(),
+            error: e.to_string().trim_end().to_string(),
+        })?;
+        for (drone, entry) in &fleet.drones {
+            if !drones.contains(drone) {
+                return Err(FleetError::UnknownDrone {
+                    path: name.to_string(),
+                    drone: drone.clone(),
+                    mission: mission.to_string(),
+                    known: drones.join(", "),
+                });
+            }
+            let problem = |p: &str| FleetError::Drone {
+                path: name.to_string(),
+                drone: drone.clone(),
+                problem: p.to_string(),
+            };
+            match entry.adapter {
+                AdapterKind::Mavlink => {
+                    if entry.connection.is_none() {
+                        return Err(problem(
+                            "a MAVLink drone needs `connection` (for example \"udpin:0.0.0.0:14550\")",
+                        ));
+                    }
+                    if entry.script.is_some() || entry.vehicle.is_some() {
+                        return Err(problem(
+                            "`script` and `vehicle` describe simulated drones, not MAVLink ones",
+                        ));
+                    }
+                }
+                AdapterKind::Sim => {
+                    if entry.connection.is_some() {
+                        return Err(problem(
+                            "`connection` is for MAVLink drones; add `adapter = \"mavlink\"`",
+                        ));
+                    }
+                }
+            }
+            if let Some(h) = entry.home {
+                if !h.is_finite() {
+                    return Err(problem("the home is not a finite point"));
+                }
+            }
+            if let Some(s) = &entry.script {
+                s.validate().map_err(|e| problem(&format!("script: {e}")))?;
+            }
+        }
+        if let Some(sim) = &fleet.sim {
+            sim.validate().map_err(|e| FleetError::Parse {
+                path: name.to_string(),
+                error: format!("[sim]: {e}"),
+            })?;
+        }
+        Ok(fleet)
+    }
+
+    pub fn entry(&self, drone: &str) -> DroneEntry {
+        self.drones.get(drone).cloned().unwrap_or_default()
+    }
+
+    /// The home of a drone: as the fleet file says, or the default.
+    pub fn home(&self, drone: &str, index: usize) -> Vec3 {
+        self.drones
+            .get(drone)
+            .and_then(|e| e.home)
+            .unwrap_or_else(|| default_home(index))
+    }
+
+    /// The simulated drone as the fleet file describes it.
+    pub fn sim_spec(&self, drone: &str, index: usize) -> SimDroneSpec {
+        let e = self.entry(drone);
+        SimDroneSpec {
+            name: drone.to_string(),
+            home: self.home(drone, index),
+            vehicle: e.vehicle.unwrap_or_default(),
+            script: e.script,
+        }
+    }
+
+    /// The listen endpoints of a peer (`GCS` or a drone).
+    pub fn listen(&self, mission_id: &str, peers: &[String], peer: &str) -> Vec<String> {
+        let given = if peer == GCS {
+            self.gcs.listen.clone()
+        } else {
+            self.entry(peer).listen
+        };
+        if !given.is_empty() {
+            return given;
+        }
+        let k = peers.iter().position(|p| p == peer).unwrap_or(0);
+        vec![format!("tcp/127.0.0.1:{}", loopback_port(mission_id, k))]
+    }
+
+    /// How `peer` joins zenoh: its listen endpoints, and the others' as
+    /// connect endpoints unless the file gives its own.
+    pub fn zenoh_options(&self, mission_id: &str, peers: &[String], peer: &str) -> ZenohOptions {
+        let connect_given = if peer == GCS {
+            self.gcs.connect.clone()
+        } else {
+            self.entry(peer).connect
+        };
+        let connect = if connect_given.is_empty() {
+            peers
+                .iter()
+                .filter(|p| p.as_str() != peer)
+                .flat_map(|p| self.listen(mission_id, peers, p))
+                .collect()
+        } else {
+            connect_given
+        };
+        ZenohOptions {
+            listen: self.listen(mission_id, peers, peer),
+            connect,
+            scouting: self.zenoh.scouting,
+        }
+    }
+}
+
+/// Where a drone the fleet file does not place starts: the drones of a
+/// mission stand in a row along Y (east), 3 m apart, in declaration order,
+/// so that their paths can be told apart in the plot.
+pub fn default_home(index: usize) -> Vec3 {
+    Vec3::new(0.0, 3.0 * index as f64, 0.0)
+}
+
+/// The loopback port of peer number `k` of a mission (`k` = 0 for the
+/// ground station, 1 + the drone's index for a drone):
+/// `20000 + 64 * (FNV-1a(mission id) mod 199) + k`.
+///
+/// Every process of one mission derives the same ports with no file to
+/// share; two different missions are unlikely to meet in the same block
+/// of 64; the ports stay below 32768, where Linux starts handing out
+/// ephemeral ports; a fleet of more than 63 drones needs explicit
+/// endpoints.
+pub fn loopback_port(mission_id: &str, k: usize) -> u16 {
+    let mut h: u32 = 0x811c_9dc5;
+    for b in mission_id.bytes() {
+        h ^= u32::from(b);
+        h = h.wrapping_mul(0x0100_0193);
+    }
+    (20000 + 64 * (h % 199) + (k as u32 % 64)) as u16
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn drones() -> Vec<String> {
+        vec!["D1".into(), "D2".into(), "D3".into()]
+    }
+
+    #[test]
+    fn a_fleet_file_binds_drones_to_adapters_homes_and_endpoints() {
+        let f = Fleet::parse(
+            r#"
+[gcs]
+listen = ["tcp/127.0.0.1:9000"]
+
+[drones.D1]
+home = { x = 1.0, y = 2.0, z = 0.0 }
+
+[drones.D3]
+script = { start_after = 1.0, legs = [{ leg = "hold", seconds = 2.0 }] }
+listen = ["tcp/127.0.0.1:9003"]
+
+[drones.D2]
+adapter = "mavlink"
+connection = "udpin:0.0.0.0:14550"
+"#,
+            "fleet.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap();
+        assert_eq!(f.home("D1", 0), Vec3::new(1.0, 2.0, 0.0));
+        assert_eq!(f.home("D3", 2), default_home(2));
+        assert_eq!(f.entry("D2").adapter, AdapterKind::Mavlink);
+        assert!(f.sim_spec("D3", 2).script.is_some());
+        let peers: Vec<String> = ["GCS", "D1", "D2", "D3"].map(String::from).to_vec();
+        let z = f.zenoh_options("abc", &peers, "D3");
+        assert_eq!(z.listen, vec!["tcp/127.0.0.1:9003"]);
+        assert!(z.connect.contains(&"tcp/127.0.0.1:9000".to_string()));
+        assert_eq!(z.connect.len(), 3);
+        assert!(!z.scouting);
+    }
+
+    #[test]
+    fn a_drone_the_mission_does_not_have_is_named_with_the_known_ones() {
+        let e = Fleet::parse("[drones.D9]\n", "f.toml", "M", &drones()).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("D9") && msg.contains("D1, D2, D3"), "{msg}");
+    }
+
+    #[test]
+    fn a_typo_in_a_key_is_reported_with_its_line() {
+        let e = Fleet::parse(
+            "[drones.D1]\nhome = { x = 0.0, y = 0.0, z = 0.0 }\nadaptor = \"sim\"\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("f.toml") && msg.contains("line 3"), "{msg}");
+    }
+
+    #[test]
+    fn a_mavlink_drone_without_a_connection_is_refused() {
+        let e = Fleet::parse(
+            "[drones.D1]\nadapter = \"mavlink\"\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("connection"), "{e}");
+    }
+
+    #[test]
+    fn a_simulated_drone_with_a_connection_is_refused() {
+        let e = Fleet::parse(
+            "[drones.D1]\nconnection = \"udpin:0.0.0.0:1\"\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("mavlink"), "{e}");
+    }
+
+    #[test]
+    fn loopback_ports_are_distinct_per_peer_and_the_same_in_every_process() {
+        let ports: Vec<u16> = (0..4).map(|k| loopback_port("mission-x", k)).collect();
+        let mut d = ports.clone();
+        d.sort();
+        d.dedup();
+        assert_eq!(d.len(), 4);
+        assert_eq!(
+            ports,
+            (0..4)
+                .map(|k| loopback_port("mission-x", k))
+                .collect::<Vec<_>>()
+        );
+        assert!(ports.iter().all(|p| (20000..32768).contains(p)));
+        let f = Fleet::default();
+        let peers: Vec<String> = ["GCS", "D1"].map(String::from).to_vec();
+        assert_eq!(
+            f.listen("mission-x", &peers, "D1"),
+            vec![format!("tcp/127.0.0.1:{}", ports[1])]
+        );
+    }
+}

@@ -1,0 +1,381 @@
+//! `eamos run MISSION`: fly a mission, simulated unless a fleet file binds
+//! drones to autopilots.
+//!
+//! Without `--drone` or `--gcs` the whole fleet runs in this process (one
+//! executor per drone plus the ground station); `--drone D2` runs only
+//! D2's agent, as on D2's companion computer, and `--gcs` the ground
+//! station, which starts the mission and follows it to its end; those talk
+//! zenoh to each other. Exit status: 0 the mission completed, 1 it did not
+//! (time limit, a failed action, stopped), 2 bad input.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use tokio::sync::mpsc;
+
+use eamos_exec::executor::{Progress, ProgressKind};
+use eamos_exec::fleet::Fleet;
+use eamos_exec::runner::{self, RunOptions, RunReport, TransportKind};
+use eamos_exec::transport::GCS;
+use eamos_exec::Outcome;
+use eamos_lang::{SourceFile, Style};
+use eamos_petri::net::TransitionKind;
+use eamos_slicer::Slices;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Transport {
+    /// Channels inside this process (the whole fleet only).
+    InProcess,
+    /// zenoh peers (on loopback unless the fleet file says otherwise).
+    Zenoh,
+}
+
+/// Fly a mission: the whole fleet here, or one drone's agent (`--drone`),
+/// or the ground station (`--gcs`).
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission file (Go syntax).
+    pub mission: PathBuf,
+    /// Run only this drone's agent, talking zenoh to its peers.
+    #[arg(long, value_name = "DRONE", conflicts_with = "gcs")]
+    pub drone: Option<String>,
+    /// Run only the ground station: start the mission and follow it.
+    #[arg(long)]
+    pub gcs: bool,
+    /// Binds drones to adapters (sim, MAVLink), homes and zenoh endpoints.
+    /// Without it every drone is simulated and peers use loopback ports
+    /// derived from the mission.
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// Simulated seconds per real second.
+    #[arg(long, value_name = "N", default_value_t = 20.0)]
+    pub speed: f64,
+    /// Mission time limit in seconds: then every drone lands and the run
+    /// reports what was still waiting, and on what.
+    #[arg(long, value_name = "SECONDS")]
+    pub max_duration: Option<f64>,
+    /// Where the logs and trajectories.svg go [default: eamos-run/<mission>].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Seed of the simulator's random processes (wind gusts).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// How the peers of a whole-fleet run talk.
+    #[arg(long, value_enum, default_value_t = Transport::InProcess)]
+    pub transport: Transport,
+    /// How long the ground station waits for its peers to come up.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub startup_timeout: f64,
+}
+
+fn bad_input(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}
+
+pub fn run(args: Args) -> ExitCode {
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        return bad_input(&format!(
+            "--speed must be a number above zero, not {}",
+            args.speed
+        ));
+    }
+    if let Some(d) = args.max_duration {
+        if !(d.is_finite() && d > 0.0) {
+            return bad_input(&format!(
+                "--max-duration must be a number of seconds above zero, not {d}"
+            ));
+        }
+    }
+    if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
+        return bad_input("--startup-timeout must be zero or more seconds");
+    }
+    let name = args.mission.display().to_string();
+    let text = match std::fs::read_to_string(&args.mission) {
+        Ok(t) => t,
+        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
+    };
+    let source = SourceFile::new(name.clone(), text);
+    let profiles = eamos_mid::profiles::builtin();
+    let style = Style {
+        width: 100,
+        colour: std::io::stderr().is_terminal(),
+    };
+    let compiled = match eamos_lang::compile(&source, &profiles) {
+        Ok(c) => c,
+        Err(diags) => {
+            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
+            return ExitCode::from(2);
+        }
+    };
+    let net = eamos_petri::compile(&compiled.mission, &profiles);
+    let slices = match eamos_slicer::slice(&net) {
+        Ok(s) => s,
+        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
+    };
+    let fleet = match &args.fleet {
+        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
+            Ok(f) => f,
+            Err(e) => return bad_input(&e.to_string()),
+        },
+        None => Fleet::default(),
+    };
+    let peer = match (&args.drone, args.gcs) {
+        (Some(d), _) => {
+            if !net.drones.contains(d) {
+                return bad_input(&format!(
+                    "`{d}` is not a drone of {} (its drones: {})",
+                    slices.mission,
+                    net.drones.join(", ")
+                ));
+            }
+            Some(d.clone())
+        }
+        (None, true) => Some(GCS.to_string()),
+        (None, false) => None,
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("eamos-run").join(&slices.mission));
+
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    let (progress_tx, progress_rx) = mpsc::unbounded_channel();
+    let options = RunOptions {
+        speed: args.speed,
+        max_duration: args.max_duration,
+        out: out.clone(),
+        transport: match args.transport {
+            Transport::InProcess => TransportKind::InProcess,
+            Transport::Zenoh => TransportKind::Zenoh,
+        },
+        source: Some(Arc::new(source)),
+        progress: Some(progress_tx),
+        startup_timeout: Duration::from_secs_f64(args.startup_timeout),
+        seed: args.seed,
+        ..RunOptions::default()
+    };
+    let shown: Vec<String> = match &peer {
+        Some(p) => vec![p.clone()],
+        None => runner::peers(&slices),
+    };
+    let result = runtime.block_on(async {
+        let stop = options.stop.clone();
+        tokio::spawn(async move {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                eprintln!("stopping: every drone lands");
+                stop.cancel();
+            }
+        });
+        let display = tokio::spawn(show_progress(progress_rx, action_counts(&slices, &shown)));
+        let result = match &peer {
+            Some(p) => runner::run_peer(&slices, &fleet, &profiles, p, &options).await,
+            None => runner::run_fleet(&slices, &fleet, &profiles, &options).await,
+        };
+        drop(options);
+        let _ = display.await;
+        result
+    });
+    let report = match result {
+        Ok(r) => r,
+        Err(e) => return bad_input(&e.to_string()),
+    };
+    let svg = eamos_exec::svg::trajectories(&slices.mission, &report.trajectories);
+    let svg_path = out.join("trajectories.svg");
+    if let Err(e) = std::fs::write(&svg_path, svg) {
+        eprintln!("warning: cannot write {}: {e}", svg_path.display());
+    }
+    for e in &report.log_errors {
+        eprintln!("warning: {e}");
+    }
+    print_summary(&slices, &report, &out, args.speed);
+    if report
+        .reports
+        .iter()
+        .all(|r| r.outcome == Outcome::Completed)
+    {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    }
+}
+
+/// Action starts in each shown slice: the length of its progress bar
+/// (`None` when a loop makes the number unknown before the flight).
+fn action_counts(slices: &Slices, shown: &[String]) -> Vec<(String, Option<u64>)> {
+    shown
+        .iter()
+        .map(|p| {
+            let s = slices.get(p).expect("every peer has a slice");
+            let looping = s
+                .transitions
+                .iter()
+                .any(|t| matches!(t.transition.kind, TransitionKind::LoopBack));
+            let n = s
+                .transitions
+                .iter()
+                .filter(|t| matches!(t.transition.kind, TransitionKind::ActionStart(_)))
+                .count() as u64;
+            (p.clone(), (!looping).then_some(n))
+        })
+        .collect()
+}
+
+/// Live progress per drone: bars when stderr is a terminal, plain lines
+/// otherwise (logs, CI).
+async fn show_progress(
+    mut rx: mpsc::UnboundedReceiver<Progress>,
+    peers: Vec<(String, Option<u64>)>,
+) {
+    let tty = std::io::stderr().is_terminal();
+    let multi = MultiProgress::with_draw_target(if tty {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    });
+    let width = peers.iter().map(|(p, _)| p.len()).max().unwrap_or(3);
+    let mut bars = std::collections::HashMap::new();
+    let mut counts: std::collections::HashMap<String, (u64, u64)> = Default::default();
+    for (p, n) in &peers {
+        let bar = match n {
+            Some(n) => {
+                let b = multi.add(ProgressBar::new(*n));
+                b.set_style(
+                    ProgressStyle::with_template(&format!(
+                        "{{prefix:>{width}}} [{{bar:24}}] {{pos:>3}}/{{len:3}} actions  {{msg}}"
+                    ))
+                    .expect("template is valid")
+                    .progress_chars("=> "),
+                );
+                b
+            }
+            None => {
+                let b = multi.add(ProgressBar::new_spinner());
+                b.set_style(
+                    ProgressStyle::with_template(&format!(
+                        "{{prefix:>{width}}} {{spinner}} {{pos:>3}} actions  {{msg}}"
+                    ))
+                    .expect("template is valid"),
+                );
+                b
+            }
+        };
+        bar.set_prefix(p.clone());
+        bars.insert(p.clone(), bar);
+    }
+    while let Some(p) = rx.recv().await {
+        let Some(bar) = bars.get(&p.drone) else {
+            continue;
+        };
+        let c = counts.entry(p.drone.clone()).or_default();
+        let line = match &p.what {
+            ProgressKind::ActionStarted(a) => format!("started {a}"),
+            ProgressKind::ActionFinished(a) => {
+                bar.inc(1);
+                format!("finished {a}")
+            }
+            ProgressKind::Sent => {
+                c.0 += 1;
+                continue_line(c)
+            }
+            ProgressKind::Received => {
+                c.1 += 1;
+                continue_line(c)
+            }
+            ProgressKind::Waiting(cond) => format!("waits for {cond}"),
+            ProgressKind::Ended(reason) => {
+                bar.finish_with_message(format!("{reason} ({})", continue_line(c)));
+                if !tty {
+                    eprintln!("[{:>8.2} s] {:>width$} {reason}", p.time, p.drone);
+                }
+                continue;
+            }
+        };
+        if tty {
+            if !matches!(p.what, ProgressKind::Sent | ProgressKind::Received) {
+                bar.set_message(format!("{line}  ({})", continue_line(c)));
+            }
+        } else if !matches!(p.what, ProgressKind::Sent | ProgressKind::Received) {
+            eprintln!("[{:>8.2} s] {:>width$} {line}", p.time, p.drone);
+        }
+    }
+}
+
+fn continue_line(c: &(u64, u64)) -> String {
+    format!("{} sent, {} received", c.0, c.1)
+}
+
+fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
+    let longest = report
+        .reports
+        .iter()
+        .map(|r| r.duration())
+        .fold(0.0, f64::max);
+    let done = report
+        .reports
+        .iter()
+        .all(|r| r.outcome == Outcome::Completed);
+    println!(
+        "{}: {} after {:.1} s of mission time ({:.1} s wall, speed {speed})",
+        slices.mission,
+        if done { "completed" } else { "did not complete" },
+        longest,
+        report.wall.as_secs_f64()
+    );
+    println!(
+        "{:<8} {:<12} {:>8} {:>10} {:>10} {:>10}",
+        "peer", "outcome", "actions", "sent", "received", "duration"
+    );
+    for r in &report.reports {
+        let outcome = match &r.outcome {
+            Outcome::Completed => "completed",
+            Outcome::TimeLimit { .. } => "time limit",
+            Outcome::Failed { .. } => "failed",
+            Outcome::Stopped => "stopped",
+        };
+        println!(
+            "{:<8} {:<12} {:>8} {:>10} {:>10} {:>8.1} s{}",
+            r.drone,
+            outcome,
+            r.actions,
+            r.sent,
+            r.received,
+            r.duration(),
+            if r.bridges.retransmissions > 0 {
+                format!("  ({} retransmitted)", r.bridges.retransmissions)
+            } else {
+                String::new()
+            }
+        );
+    }
+    for r in &report.reports {
+        match &r.outcome {
+            Outcome::TimeLimit { waiting } => {
+                println!("{} was still waiting when the time limit expired:", r.drone);
+                if waiting.is_empty() {
+                    println!("  (nothing: its part was done)");
+                }
+                for w in waiting {
+                    println!("  - {w}");
+                }
+            }
+            Outcome::Failed { reason } => println!("{}: {reason}", r.drone),
+            _ => {}
+        }
+    }
+    println!(
+        "logs: {}/<drone>.{{mission,uniform,adapter}}.jsonl; paths: {}",
+        out.display(),
+        out.join("trajectories.svg").display()
+    );
+}

@@ -1,0 +1,128 @@
+//! `eamos run MISSION --drone D` and `--gcs`: one process per drone plus one
+//! for the ground station, talking zenoh on loopback, as on real companion
+//! computers. Each process has a time limit; all are killed if one fails.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use assert_cmd::cargo::CommandCargoExt;
+use serde_json::Value;
+
+fn paper(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/missions/paper")
+        .join(name)
+}
+
+/// Kills every process it still holds when dropped (a failed assertion
+/// must not leave agents behind).
+struct Processes(Vec<(String, Child)>);
+
+impl Drop for Processes {
+    fn drop(&mut self) {
+        for (_, c) in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn peers(mission: &str) -> (Vec<String>, Vec<(String, usize, usize)>) {
+    let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
+    let profiles = eamos_mid::profiles::builtin();
+    let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
+    let net = eamos_petri::compile(&m, &profiles);
+    let slices = eamos_slicer::slice(&net).unwrap();
+    let bridges = slices
+        .slices
+        .iter()
+        .map(|s| (s.drone.clone(), s.bridges_in.len(), s.bridges_out.len()))
+        .collect();
+    (net.drones.clone(), bridges)
+}
+
+fn count(dir: &Path, peer: &str, event: &str) -> usize {
+    std::fs::read_to_string(dir.join(format!("{peer}.mission.jsonl")))
+        .unwrap()
+        .lines()
+        .filter(|l| serde_json::from_str::<Value>(l).unwrap()["event"] == event)
+        .count()
+}
+
+/// Starts the drones first and the ground station last (the order a crew
+/// would use; the ground station waits for its peers anyway), waits for
+/// every process within `limit`.
+fn fly_as_separate_processes(mission: &str, limit: Duration) {
+    let (drones, bridges) = peers(mission);
+    let dir = tempfile::tempdir().unwrap();
+    let mut procs = Processes(Vec::new());
+    let mut roles: Vec<Vec<String>> = drones
+        .iter()
+        .map(|d| vec!["--drone".to_string(), d.clone()])
+        .collect();
+    roles.push(vec!["--gcs".to_string()]);
+    for role in roles {
+        let child = Command::cargo_bin("eamos")
+            .unwrap()
+            .arg("run")
+            .arg(paper(mission))
+            .args(&role)
+            .arg("--out")
+            .arg(dir.path())
+            .args(["--speed", "50", "--max-duration", "600"])
+            .stdout(Stdio::from(std::fs::File::create(dir.path().join(format!("{}.out", role.join("")))).unwrap()))
+            .stderr(Stdio::from(std::fs::File::create(dir.path().join(format!("{}.err", role.join("")))).unwrap()))
+            .spawn()
+            .unwrap();
+        procs.0.push((role.join(" "), child));
+    }
+    let start = Instant::now();
+    let mut done = vec![false; procs.0.len()];
+    while done.iter().any(|d| !d) {
+        assert!(
+            start.elapsed() < limit,
+            "{mission}: not all peers finished within {limit:?}"
+        );
+        for (i, (role, child)) in procs.0.iter_mut().enumerate() {
+            if done[i] {
+                continue;
+            }
+            if let Some(status) = child.try_wait().unwrap() {
+                done[i] = true;
+                if !status.success() {
+                    let tag = role.replace(' ', "");
+                    let out = std::fs::read_to_string(dir.path().join(format!("{tag}.out")));
+                    let err = std::fs::read_to_string(dir.path().join(format!("{tag}.err")));
+                    panic!("{mission}: `{role}` failed ({status}):\n{out:?}\n{err:?}");
+                }
+            }
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    for (peer, bridges_in, bridges_out) in bridges {
+        assert_eq!(count(dir.path(), &peer, "bridge_received"), bridges_in, "{mission}: {peer} received");
+        assert_eq!(count(dir.path(), &peer, "bridge_sent"), bridges_out, "{mission}: {peer} sent");
+        assert_eq!(count(dir.path(), &peer, "mission_ended"), 1, "{mission}: {peer}");
+    }
+}
+
+#[test]
+fn experiment_a_runs_as_one_process_per_peer_over_zenoh() {
+    fly_as_separate_processes("experiment_a.go", Duration::from_secs(120));
+}
+
+#[test]
+fn experiment_b_runs_as_one_process_per_peer_over_zenoh() {
+    fly_as_separate_processes("experiment_b.go", Duration::from_secs(120));
+}
+
+#[test]
+fn experiment_c_runs_as_one_process_per_peer_over_zenoh() {
+    fly_as_separate_processes("experiment_c.go", Duration::from_secs(120));
+}
+
+#[test]
+fn listing_1_runs_as_one_process_per_peer_over_zenoh() {
+    fly_as_separate_processes("listing01_demo.go", Duration::from_secs(120));
+}
