@@ -1312,7 +1312,9 @@ impl<'a> Checker<'a> {
         }
     }
 
-    fn resolve_drone(&mut self, name: &'a ast::Ident, env: &Env<'a>) -> Option<DroneRef<'a>> {
+    /// A drone named in an action, a property or an argument: a drone
+    /// parameter or a declared drone.
+    fn resolve_drone(&mut self, name: &ast::Ident, env: &Env<'a>) -> Option<DroneRef<'a>> {
         match env.get(&name.name) {
             Some(Binding::Drone { id, profile }) => {
                 return Some(DroneRef {
@@ -1370,9 +1372,10 @@ impl<'a> Checker<'a> {
                     format!("unknown drone `{}`", name.name),
                 )
                 .with_label("not declared");
+                let example = self.profiles.names().next().unwrap_or("DroneType");
                 d.help = Some(
                     did_you_mean(&name.name, candidates.iter().copied())
-                        .unwrap_or_else(|| format!("declare it: `var {} Quadcopter`", name.name)),
+                        .unwrap_or_else(|| format!("declare it: `var {} {example}`", name.name)),
                 );
                 d
             }
@@ -1474,7 +1477,7 @@ impl<'a> Checker<'a> {
                         name: name.to_string(),
                         span: arg.span,
                     };
-                    let Some(d) = self.resolve_drone_arg(&ident, env) else {
+                    let Some(d) = self.resolve_drone(&ident, env) else {
                         ok = false;
                         continue;
                     };
@@ -1552,68 +1555,6 @@ impl<'a> Checker<'a> {
             return None;
         }
         Some(hir::Stmt::Block(self.expand(decl, &inner, b.span, ctx)))
-    }
-
-    /// A drone passed as an argument: a drone parameter or a declared drone.
-    fn resolve_drone_arg(&mut self, ident: &ast::Ident, env: &Env<'a>) -> Option<DroneRef<'a>> {
-        // Resolution needs an ident living as long as the tree; look it up
-        // by name instead.
-        match env.get(&ident.name) {
-            Some(Binding::Drone { id, profile }) => Some(DroneRef {
-                id: id.unwrap_or(DroneId(u16::MAX)),
-                profile: *profile,
-                profile_name: profile.map_or("", |p| p.name.as_str()),
-            }),
-            Some(Binding::Number { .. }) => {
-                self.emit(
-                    Diagnostic::error(
-                        "eamos::not-a-drone",
-                        ident.span,
-                        format!("`{}` is a number parameter, not a drone", ident.name),
-                    )
-                    .with_label("expected a drone"),
-                );
-                None
-            }
-            Some(Binding::Poisoned) => None,
-            None => {
-                if let Some(i) = self.drones.iter().position(|d| d.name.name == ident.name) {
-                    let d = &self.drones[i];
-                    return Some(DroneRef {
-                        id: DroneId(i as u16),
-                        profile: d.profile,
-                        profile_name: &d.ty.name,
-                    });
-                }
-                let candidates: Vec<&str> = self
-                    .drones
-                    .iter()
-                    .map(|d| d.name.name.as_str())
-                    .chain(
-                        env.params
-                            .iter()
-                            .filter(|(_, b)| matches!(b, Binding::Drone { .. }))
-                            .map(|(n, _)| n.as_str()),
-                    )
-                    .collect();
-                let (code, message) = if self.globals.contains_key(ident.name.as_str()) {
-                    (
-                        "eamos::not-a-drone",
-                        format!("`{}` is not a drone", ident.name),
-                    )
-                } else {
-                    (
-                        "eamos::unknown-drone",
-                        format!("unknown drone `{}`", ident.name),
-                    )
-                };
-                let mut d =
-                    Diagnostic::error(code, ident.span, message).with_label("expected a drone");
-                d.help = did_you_mean(&ident.name, candidates.iter().copied());
-                self.emit(d);
-                None
-            }
-        }
     }
 
     fn unknown_block(&mut self, name: &ast::Ident, env: &Env<'a>) {
@@ -2279,7 +2220,7 @@ impl<'a> Checker<'a> {
             name: drone_name.to_string(),
             span: drone_expr.span,
         };
-        let drone = self.resolve_drone_arg(&ident, env)?;
+        let drone = self.resolve_drone(&ident, env)?;
         let profile = drone.profile?;
         let Some(sig) = profile.properties.get(&field.name) else {
             let d = if profile.actions.contains_key(&field.name) {
@@ -2371,7 +2312,7 @@ impl<'a> Checker<'a> {
                 name: name.to_string(),
                 span: arg.span,
             };
-            let other = self.resolve_drone_arg(&ident, env)?;
+            let other = self.resolve_drone(&ident, env)?;
             drone_args.push(other.id);
         }
         if self.mode == Mode::Expand {
