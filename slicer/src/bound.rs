@@ -170,10 +170,9 @@ fn bound_with_final(mission: &Mission, final_loc: Loc) -> Option<usize> {
     for &v in topo.iter().rev() {
         for &c in &succ[v] {
             below[v][c] = true;
-            for w in 0..n {
-                if below[c][w] {
-                    below[v][w] = true;
-                }
+            let reach = below[c].clone();
+            for (x, y) in below[v].iter_mut().zip(reach) {
+                *x |= y;
             }
         }
     }
