@@ -641,28 +641,32 @@ impl Shared {
                 }
             }
         };
-        let sent_at = Instant::now();
         let outcome = tokio::select! {
             r = command_long(&self.link, target, command, params, &self.options.commands) => r,
             _ = lost => return Err(link_lost()),
         };
         if let Err(CommandError::NoAck { .. }) = &outcome {
-            // No answer, and nothing at all heard since the command went
-            // out: that is a lost link rather than a slow autopilot, and
-            // the link monitor is about to say so. Wait for its verdict.
+            // No answer, and the vehicle silent for longer than an ACK
+            // wait: a live autopilot streams telemetry several times a
+            // second, so this is a lost link rather than a slow autopilot,
+            // and the link monitor is about to say so. Wait for its
+            // verdict; a vehicle heard again in the meantime makes it a
+            // plain timeout.
             let last_heard = self.watched.borrow().vehicle.last_heard;
-            if let Some(heard) = last_heard.filter(|h| *h < sent_at) {
+            let silent_since =
+                last_heard.filter(|h| h.elapsed() >= self.options.commands.ack_timeout);
+            if let Some(heard) = silent_since {
                 let verdict = heard + self.options.link_timeout + Duration::from_secs(1);
-                let silent = self
+                let silence = self
                     .wait(verdict, &CancellationToken::new(), |w| {
-                        if w.vehicle.last_heard > Some(sent_at) {
+                        if w.vehicle.last_heard > Some(heard) {
                             Check::Done(())
                         } else {
                             Check::Pending
                         }
                     })
                     .await;
-                if let Err(Halt::LinkLost) = silent {
+                if let Err(Halt::LinkLost) = silence {
                     return Err(link_lost());
                 }
             }
