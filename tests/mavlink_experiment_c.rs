@@ -1,0 +1,321 @@
+//! Missions flown through `eamos run` with drones bound to MAVLink
+//! vehicles by a fleet file: the paper's hybrid Experiment C (two drones
+//! over MAVLink, one simulated), and what a mission reports when a vehicle
+//! refuses to arm or falls silent in flight.
+//!
+//! The MAVLink vehicles are `eamos sim-vehicle` processes on loopback
+//! ports; every wait is bounded, nothing asserts how fast it went.
+
+use std::io::{BufRead, BufReader, Read};
+use std::net::UdpSocket;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+/// Kills a child process when the test ends, however it ends.
+struct Running(Child);
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_udp_port() -> u16 {
+    UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .expect("a free loopback port")
+        .port()
+}
+
+fn paper(mission: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/missions/paper")
+        .join(mission)
+}
+
+fn sim_vehicle(port: u16, extra: &[&str]) -> Running {
+    Running(
+        Command::new(env!("CARGO_BIN_EXE_eamos"))
+            .args([
+                "sim-vehicle",
+                "--connect",
+                &format!("udpout:127.0.0.1:{port}"),
+            ])
+            .args(extra)
+            .args(["--exit-after", "300"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("eamos sim-vehicle starts"),
+    )
+}
+
+fn mavlink_entry(drone: &str, port: u16, home_y: f64) -> String {
+    format!(
+        "[drones.{drone}]\nadapter = \"mavlink\"\nconnection = \"udpin:127.0.0.1:{port}\"\nhome = {{ x = 0.0, y = {home_y}, z = 0.0 }}\n\n"
+    )
+}
+
+/// Runs `eamos run` to its end (bounded); returns exit code and stdout.
+fn run_mission(
+    mission: &Path,
+    fleet: &Path,
+    out: &Path,
+    speed: &str,
+) -> (Option<i32>, String, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_eamos"))
+        .arg("run")
+        .arg(mission)
+        .arg("--fleet")
+        .arg(fleet)
+        .args(["--speed", speed, "--max-duration", "600", "--out"])
+        .arg(out)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("eamos run starts");
+    let started = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut stdout = String::new();
+            let mut stderr = String::new();
+            child
+                .stdout
+                .take()
+                .unwrap()
+                .read_to_string(&mut stdout)
+                .unwrap();
+            child
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut stderr)
+                .unwrap();
+            return (status.code(), stdout, stderr);
+        }
+        if started.elapsed() > Duration::from_secs(240) {
+            let _ = child.kill();
+            panic!("eamos run did not end within 240 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+fn adapter_log(out: &Path, drone: &str) -> Vec<Value> {
+    let text =
+        std::fs::read_to_string(out.join(format!("{drone}.adapter.jsonl"))).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+/// The position targets the adapter sent, in the mission frame.
+fn targets(log: &[Value]) -> Vec<[f64; 3]> {
+    log.iter()
+        .filter(|r| {
+            r["event"] == "command"
+                && r["detail"]
+                    .as_str()
+                    .is_some_and(|d| d.starts_with("SET_POSITION_TARGET_LOCAL_NED"))
+        })
+        .map(|r| {
+            let a = r["args"].as_array().unwrap();
+            [0, 1, 2].map(|i| a[i].as_f64().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn experiment_c_flies_hybrid_two_drones_over_mavlink_and_one_in_the_simulator() {
+    let dir = tempfile::tempdir().unwrap();
+    let (p1, p2) = (free_udp_port(), free_udp_port());
+    let vehicle_args = ["--ready-after", "10", "--speed", "5"];
+    let _v1 = sim_vehicle(p1, &vehicle_args);
+    let _v2 = sim_vehicle(p2, &[&vehicle_args[..], &["--sysid", "2"]].concat());
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(
+        &fleet,
+        format!(
+            "{}{}[drones.Drone3]\nhome = {{ x = 0.0, y = 6.0, z = 0.0 }}\n",
+            mavlink_entry("Drone1", p1, 0.0),
+            mavlink_entry("Drone2", p2, 3.0)
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let (code, stdout, stderr) = run_mission(&paper("experiment_c.go"), &fleet, &out, "5");
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("ExperimentC: completed"), "{stdout}");
+    for drone in ["Drone1", "Drone2", "Drone3"] {
+        let line = stdout
+            .lines()
+            .find(|l| l.starts_with(drone))
+            .unwrap_or_else(|| panic!("no line for {drone}: {stdout}"));
+        assert!(line.contains("completed"), "{line}");
+    }
+
+    // Drone1 and Drone2 flew their 1 m square at 1.5 m, through MAVLink
+    // position targets, and every action ended well.
+    let square = [
+        [0.0, 0.0, 1.5],
+        [1.0, 0.0, 1.5],
+        [1.0, 1.0, 1.5],
+        [0.0, 1.0, 1.5],
+        [0.0, 0.0, 1.5],
+    ];
+    for drone in ["Drone1", "Drone2"] {
+        let log = adapter_log(&out, drone);
+        assert!(log.iter().all(|r| r["adapter"] == "mavlink"));
+        let sent = targets(&log);
+        assert_eq!(sent.len(), square.len(), "{drone}: {sent:?}");
+        for (got, want) in sent.iter().zip(square) {
+            let d = (0..3)
+                .map(|i| (got[i] - want[i]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(d < 0.1, "{drone}: target {got:?}, expected {want:?}");
+        }
+        let completed: Vec<(&str, &str)> = log
+            .iter()
+            .filter(|r| r["event"] == "completed")
+            .map(|r| {
+                (
+                    r["action"].as_str().unwrap(),
+                    r["outcome"].as_str().unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(completed.len(), 8, "{drone}: {completed:?}");
+        assert!(
+            completed.iter().all(|(_, o)| *o == "ok"),
+            "{drone}: {completed:?}"
+        );
+        assert!(
+            log.iter()
+                .any(|r| r["detail"] == "mode GUIDED set and confirmed"),
+            "{drone}"
+        );
+        assert!(log.iter().any(|r| r["detail"] == "disarmed"), "{drone}");
+    }
+    // Drone3 flew in the simulator.
+    let d3 = adapter_log(&out, "Drone3");
+    assert!(!d3.is_empty() && d3.iter().all(|r| r["adapter"] == "sim"));
+}
+
+#[test]
+fn a_vehicle_that_refuses_to_arm_fails_the_mission_naming_command_result_and_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let p1 = free_udp_port();
+    let _v1 = sim_vehicle(
+        p1,
+        &[
+            "--ready-after",
+            "2",
+            "--speed",
+            "5",
+            "--refuse-arming",
+            "Arm: Hardware safety switch",
+        ],
+    );
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(&fleet, mavlink_entry("Drone1", p1, 0.0)).unwrap();
+    let out = dir.path().join("out");
+    let (code, stdout, stderr) = run_mission(&paper("experiment_a.go"), &fleet, &out, "5");
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout.starts_with("ExperimentA: did not complete"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains(
+            "the drone refused `Arm`: MAV_CMD_COMPONENT_ARM_DISARM was refused with MAV_RESULT_FAILED; the autopilot said: \"Arm: Hardware safety switch\""
+        ),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn a_vehicle_falling_silent_in_flight_fails_the_mission_with_a_lost_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let p1 = free_udp_port();
+    let mut vehicle = sim_vehicle(p1, &["--ready-after", "2", "--speed", "1"]);
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(&fleet, mavlink_entry("Drone1", p1, 0.0)).unwrap();
+    let out = dir.path().join("out");
+    let mut child = Running(
+        Command::new(env!("CARGO_BIN_EXE_eamos"))
+            .arg("run")
+            .arg(paper("experiment_a.go"))
+            .arg("--fleet")
+            .arg(&fleet)
+            .args(["--speed", "1", "--max-duration", "600", "--out"])
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("eamos run starts"),
+    );
+
+    // Once the drone starts its take-off, the radio goes quiet: the
+    // progress lines on stderr say when.
+    let stderr = child.0.stderr.take().unwrap();
+    let (seen_tx, seen_rx) = std::sync::mpsc::channel();
+    let reader = std::thread::spawn(move || {
+        let mut all = String::new();
+        for line in BufReader::new(stderr).lines() {
+            let line = line.unwrap_or_default();
+            if line.contains("Drone1 started Takeoff") {
+                let _ = seen_tx.send(());
+            }
+            all.push_str(&line);
+            all.push('\n');
+        }
+        all
+    });
+    let took_off = seen_rx.recv_timeout(Duration::from_secs(120));
+    vehicle.0.kill().unwrap();
+    took_off.expect("the drone started its take-off");
+
+    let started = Instant::now();
+    let status = loop {
+        if let Some(status) = child.0.try_wait().unwrap() {
+            break status;
+        }
+        if started.elapsed() > Duration::from_secs(120) {
+            panic!("eamos run did not end within 120 s of the link going quiet");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let mut stdout = String::new();
+    child
+        .0
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_string(&mut stdout)
+        .unwrap();
+    let stderr = reader.join().unwrap();
+    assert_eq!(status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout.starts_with("ExperimentA: did not complete"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("lost the link to the drone during `Takeoff`"),
+        "{stdout}"
+    );
+    let log = adapter_log(&out, "Drone1");
+    assert!(
+        log.iter().any(|r| r["detail"].as_str().is_some_and(
+            |d| d.starts_with("lost the link to the vehicle: nothing heard for 5.0 s")
+        )),
+        "the adapter log says why"
+    );
+    assert!(log.iter().any(|r| r["event"] == "completed"
+        && r["action"] == "Takeoff"
+        && r["outcome"] == "link_lost"));
+}
