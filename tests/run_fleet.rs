@@ -13,7 +13,9 @@ fn paper(name: &str) -> PathBuf {
 }
 
 fn example(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
 }
 
 /// Bridges in and out of each peer's slice, from the library.
@@ -34,7 +36,9 @@ fn slice_bridges(mission: &str) -> Vec<(String, usize, usize)> {
 fn mission_log(dir: &Path, drone: &str) -> Vec<Value> {
     let text = std::fs::read_to_string(dir.join(format!("{drone}.mission.jsonl")))
         .unwrap_or_else(|e| panic!("no mission log of {drone}: {e}"));
-    text.lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+    text.lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
 }
 
 fn count(log: &[Value], event: &str) -> usize {
@@ -48,9 +52,11 @@ fn times(log: &[Value], event: &str, action: &str, args: &[f64]) -> Vec<f64> {
             r["event"] == event
                 && r["action"].as_str().is_some_and(|a| a.starts_with(action))
                 && (event != "action_started"
-                    || r["args"]
-                        .as_array()
-                        .is_some_and(|a| a.iter().map(|v| v.as_f64().unwrap()).eq(args.iter().copied())))
+                    || r["args"].as_array().is_some_and(|a| {
+                        a.iter()
+                            .map(|v| v.as_f64().unwrap())
+                            .eq(args.iter().copied())
+                    }))
         })
         .map(|r| r["time"].as_f64().unwrap())
         .collect()
@@ -72,22 +78,42 @@ fn run(mission: &str, dir: &Path, extra: &[&str]) -> std::process::Output {
 fn assert_counts_match_slices(mission: &str, dir: &Path) {
     for (peer, bridges_in, bridges_out) in slice_bridges(mission) {
         let log = mission_log(dir, &peer);
-        assert_eq!(count(&log, "bridge_received"), bridges_in, "{mission}: {peer} received");
-        assert_eq!(count(&log, "bridge_sent"), bridges_out, "{mission}: {peer} sent");
+        assert_eq!(
+            count(&log, "bridge_received"),
+            bridges_in,
+            "{mission}: {peer} received"
+        );
+        assert_eq!(
+            count(&log, "bridge_sent"),
+            bridges_out,
+            "{mission}: {peer} sent"
+        );
     }
 }
 
 #[test]
 fn every_paper_mission_without_loops_completes_with_as_many_messages_as_its_slices_have_bridges() {
-    for mission in ["experiment_a.go", "experiment_b.go", "experiment_c.go", "listing01_demo.go"] {
+    for mission in [
+        "experiment_a.go",
+        "experiment_b.go",
+        "experiment_c.go",
+        "listing01_demo.go",
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let out = run(mission, dir.path(), &[]);
         let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(out.status.success(), "{mission}: {stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{mission}: {stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(stdout.contains("completed after"), "{stdout}");
         assert_counts_match_slices(mission, dir.path());
         assert!(dir.path().join("trajectories.svg").exists());
-        for (peer, _, _) in slice_bridges(mission).into_iter().filter(|(p, _, _)| p != "GCS") {
+        for (peer, _, _) in slice_bridges(mission)
+            .into_iter()
+            .filter(|(p, _, _)| p != "GCS")
+        {
             for log in ["uniform", "adapter"] {
                 let p = dir.path().join(format!("{peer}.{log}.jsonl"));
                 assert!(p.exists(), "{}", p.display());
@@ -102,7 +128,12 @@ fn experiment_c_moves_the_real_drones_only_after_drone3_has_moved() {
     let out = run("experiment_c.go", dir.path(), &[]);
     assert!(out.status.success());
     let d3 = mission_log(dir.path(), "Drone3");
-    let legs = [("FlyByX", 5.0, 1.0), ("FlyByY", 5.0, 1.0), ("FlyByX", -5.0, -1.0), ("FlyByY", -5.0, -1.0)];
+    let legs = [
+        ("FlyByX", 5.0, 1.0),
+        ("FlyByY", 5.0, 1.0),
+        ("FlyByX", -5.0, -1.0),
+        ("FlyByY", -5.0, -1.0),
+    ];
     for (action, d3_arg, follower_arg) in legs {
         let d3_done = times(&d3, "action_finished", &format!("{action}({d3_arg})"), &[]);
         assert_eq!(d3_done.len(), 1, "{action}({d3_arg})");
@@ -110,7 +141,10 @@ fn experiment_c_moves_the_real_drones_only_after_drone3_has_moved() {
             let log = mission_log(dir.path(), follower);
             let started = times(&log, "action_started", action, &[follower_arg]);
             assert_eq!(started.len(), 1, "{follower} {action}({follower_arg})");
-            assert!(started[0] >= d3_done[0], "{follower} {action} began before Drone3 had moved");
+            assert!(
+                started[0] >= d3_done[0],
+                "{follower} {action} began before Drone3 had moved"
+            );
         }
     }
     // Everyone lands only after Drone3 has landed; disarming comes last.
@@ -136,7 +170,10 @@ fn listing_1_turns_on_all_three_before_any_preflight_check_and_the_camera_comes_
         .fold(0.0, f64::max);
     for l in &logs[..2] {
         assert!(times(l, "action_started", "PreFlightCheck", &[])[0] >= turned_on);
-        assert!(times(l, "action_started", "Calibrate", &[])[0] >= times(l, "action_finished", "PreFlightCheck", &[])[0]);
+        assert!(
+            times(l, "action_started", "Calibrate", &[])[0]
+                >= times(l, "action_finished", "PreFlightCheck", &[])[0]
+        );
     }
     let calibrated = logs[..2]
         .iter()
@@ -149,7 +186,11 @@ fn listing_1_turns_on_all_three_before_any_preflight_check_and_the_camera_comes_
 fn the_one_process_fleet_runs_over_zenoh_on_loopback_too() {
     let dir = tempfile::tempdir().unwrap();
     let out = run("experiment_b.go", dir.path(), &["--transport", "zenoh"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert_counts_match_slices("experiment_b.go", dir.path());
 }
 
@@ -170,17 +211,28 @@ fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_
     assert_eq!(out.status.code(), Some(1), "{stdout}");
     assert!(stdout.contains("did not complete"), "{stdout}");
     // The four loops wait in their WaitUntil, on D3's position.
-    assert_eq!(stdout.matches("waits for its condition").count(), 4, "{stdout}");
+    assert_eq!(
+        stdout.matches("waits for its condition").count(),
+        4,
+        "{stdout}"
+    );
     assert!(stdout.contains("experiment_d.go:56:"), "{stdout}");
     // D1 and D2 moved both ways while D3 hovered over their squares.
     for drone in ["D1", "D2"] {
         let log = mission_log(dir.path(), drone);
-        assert!(!times(&log, "action_started", "FlyByX", &[0.2]).is_empty(), "{drone} X+");
-        assert!(!times(&log, "action_started", "FlyByX", &[-0.2]).is_empty(), "{drone} X-");
+        assert!(
+            !times(&log, "action_started", "FlyByX", &[0.2]).is_empty(),
+            "{drone} X+"
+        );
+        assert!(
+            !times(&log, "action_started", "FlyByX", &[-0.2]).is_empty(),
+            "{drone} X-"
+        );
     }
     // Every drone is on the ground at the end.
     for drone in ["D1", "D2", "D3"] {
-        let adapter = std::fs::read_to_string(dir.path().join(format!("{drone}.adapter.jsonl"))).unwrap();
+        let adapter =
+            std::fs::read_to_string(dir.path().join(format!("{drone}.adapter.jsonl"))).unwrap();
         let last = adapter
             .lines()
             .filter_map(|l| serde_json::from_str::<Value>(l).ok())
@@ -201,7 +253,10 @@ fn a_drone_the_mission_does_not_have_is_bad_input() {
     let out = run("experiment_b.go", dir.path(), &["--drone", "Drone9"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("Drone9") && err.contains("Drone1, Drone2"), "{err}");
+    assert!(
+        err.contains("Drone9") && err.contains("Drone1, Drone2"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -209,10 +264,17 @@ fn a_fleet_file_with_a_typo_is_bad_input_naming_its_line() {
     let dir = tempfile::tempdir().unwrap();
     let fleet = dir.path().join("fleet.toml");
     std::fs::write(&fleet, "[drones.Drone1]\nadaptr = \"sim\"\n").unwrap();
-    let out = run("experiment_b.go", dir.path(), &["--fleet", fleet.to_str().unwrap()]);
+    let out = run(
+        "experiment_b.go",
+        dir.path(),
+        &["--fleet", fleet.to_str().unwrap()],
+    );
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("fleet.toml") && err.contains("line 2"), "{err}");
+    assert!(
+        err.contains("fleet.toml") && err.contains("line 2"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -227,7 +289,11 @@ fn a_speed_of_zero_is_bad_input() {
 fn a_mission_that_does_not_compile_is_bad_input_with_its_line() {
     let dir = tempfile::tempdir().unwrap();
     let m = dir.path().join("broken.go");
-    std::fs::write(&m, "package M\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Fly()\n}\n").unwrap();
+    std::fs::write(
+        &m,
+        "package M\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Fly()\n}\n",
+    )
+    .unwrap();
     let out = Command::cargo_bin("eamos")
         .unwrap()
         .arg("run")

@@ -29,7 +29,8 @@ impl Drop for Processes {
 }
 
 fn peers(mission: &str) -> (Vec<String>, Vec<(String, usize, usize)>) {
-    let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
+    let file =
+        eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
     let profiles = eamos_mid::profiles::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&m, &profiles);
@@ -71,8 +72,12 @@ fn fly_as_separate_processes(mission: &str, limit: Duration) {
             .arg("--out")
             .arg(dir.path())
             .args(["--speed", "50", "--max-duration", "600"])
-            .stdout(Stdio::from(std::fs::File::create(dir.path().join(format!("{}.out", role.join("")))).unwrap()))
-            .stderr(Stdio::from(std::fs::File::create(dir.path().join(format!("{}.err", role.join("")))).unwrap()))
+            .stdout(Stdio::from(
+                std::fs::File::create(dir.path().join(format!("{}.out", role.join("")))).unwrap(),
+            ))
+            .stderr(Stdio::from(
+                std::fs::File::create(dir.path().join(format!("{}.err", role.join("")))).unwrap(),
+            ))
             .spawn()
             .unwrap();
         procs.0.push((role.join(" "), child));
@@ -101,9 +106,21 @@ fn fly_as_separate_processes(mission: &str, limit: Duration) {
         std::thread::sleep(Duration::from_millis(50));
     }
     for (peer, bridges_in, bridges_out) in bridges {
-        assert_eq!(count(dir.path(), &peer, "bridge_received"), bridges_in, "{mission}: {peer} received");
-        assert_eq!(count(dir.path(), &peer, "bridge_sent"), bridges_out, "{mission}: {peer} sent");
-        assert_eq!(count(dir.path(), &peer, "mission_ended"), 1, "{mission}: {peer}");
+        assert_eq!(
+            count(dir.path(), &peer, "bridge_received"),
+            bridges_in,
+            "{mission}: {peer} received"
+        );
+        assert_eq!(
+            count(dir.path(), &peer, "bridge_sent"),
+            bridges_out,
+            "{mission}: {peer} sent"
+        );
+        assert_eq!(
+            count(dir.path(), &peer, "mission_ended"),
+            1,
+            "{mission}: {peer}"
+        );
     }
 }
 

@@ -164,24 +164,45 @@ async fn a_transport_that_loses_and_duplicates_messages_still_runs_every_action_
             let starts = s
                 .transitions
                 .iter()
-                .filter(|t| matches!(t.transition.kind, eamos_petri::net::TransitionKind::ActionStart(_)))
+                .filter(|t| {
+                    matches!(
+                        t.transition.kind,
+                        eamos_petri::net::TransitionKind::ActionStart(_)
+                    )
+                })
                 .count();
             let mut unique = r.started_actions.clone();
             unique.sort();
             unique.dedup();
-            assert_eq!(unique.len(), r.started_actions.len(), "{mission}: {} ran an action twice", r.drone);
+            assert_eq!(
+                unique.len(),
+                r.started_actions.len(),
+                "{mission}: {} ran an action twice",
+                r.drone
+            );
             assert_eq!(r.started_actions.len(), starts, "{mission}: {}", r.drone);
             // The uniform log agrees: one call per action.
             if r.drone != "GCS" {
-                let uniform = std::fs::read_to_string(dir.path().join(format!("{}.uniform.jsonl", r.drone))).unwrap();
-                let calls = uniform.lines().filter(|l| l.contains("\"phase\":\"started\"")).count();
+                let uniform =
+                    std::fs::read_to_string(dir.path().join(format!("{}.uniform.jsonl", r.drone)))
+                        .unwrap();
+                let calls = uniform
+                    .lines()
+                    .filter(|l| l.contains("\"phase\":\"started\""))
+                    .count();
                 assert_eq!(calls, starts, "{mission}: {} uniform calls", r.drone);
             }
             retransmitted += r.bridges.retransmissions;
             duplicates += r.bridges.duplicates;
         }
-        assert!(retransmitted > 0, "{mission}: the faults should have forced retransmissions");
-        assert!(duplicates > 0, "{mission}: the faults should have made duplicates");
+        assert!(
+            retransmitted > 0,
+            "{mission}: the faults should have forced retransmissions"
+        );
+        assert!(
+            duplicates > 0,
+            "{mission}: the faults should have made duplicates"
+        );
     }
 }
 

@@ -328,7 +328,11 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
     println!(
         "{}: {} after {:.1} s of mission time ({:.1} s wall, speed {speed})",
         slices.mission,
-        if done { "completed" } else { "did not complete" },
+        if done {
+            "completed"
+        } else {
+            "did not complete"
+        },
         longest,
         report.wall.as_secs_f64()
     );
