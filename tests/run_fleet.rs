@@ -235,9 +235,9 @@ fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_
             std::fs::read_to_string(dir.path().join(format!("{drone}.adapter.jsonl"))).unwrap();
         let last = adapter
             .lines()
+            .rev()
             .filter_map(|l| serde_json::from_str::<Value>(l).ok())
-            .filter(|r| r["event"] == "position")
-            .last();
+            .find(|r| r["event"] == "position");
         let log = mission_log(dir.path(), drone);
         let landed = log.iter().any(|r| {
             r["event"] == "action_finished" && r["action"] == "Land" && r["outcome"] == "ok"
