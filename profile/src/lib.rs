@@ -182,7 +182,8 @@ mod tests {
     #[test]
     fn a_table_refuses_a_second_profile_of_the_same_name() {
         let mut t = ProfileTable::new();
-        t.insert(ProfileTable::parse_profile(SAMPLE).unwrap()).unwrap();
+        t.insert(ProfileTable::parse_profile(SAMPLE).unwrap())
+            .unwrap();
         let err = t.insert(ProfileTable::parse_profile(SAMPLE).unwrap());
         assert!(matches!(err, Err(ProfileError::Duplicate(n)) if n == "Rover"));
     }
