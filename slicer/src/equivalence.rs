@@ -32,6 +32,13 @@
 //! first changes no visible trace and no dead marking. Bridge deliveries,
 //! forks and joins are such transitions, which is what keeps the composed
 //! net's state space close to the mission net's.
+//!
+//! Likewise a *free choice*: a marked place whose consumers are all silent
+//! transitions with that place as their only input and no read arc (the two
+//! sides of an `If` or of a loop head outside `Do` regions). Making the
+//! choice first commutes with every other firing, so only the choice is
+//! explored from such a marking. Every loop has a choice at its head that
+//! may leave it, so no silent cycle hides a transition for ever.
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 
@@ -138,6 +145,10 @@ struct T {
     label: Option<(u8, u32)>,
     marks_final: bool,
     eager: bool,
+    /// Silent, one input place consumed only by silent transitions like it
+    /// (a free choice, such as an `If` on a condition): the choice may be
+    /// made at once, before anything else.
+    chooser: bool,
 }
 
 struct Game {
@@ -223,6 +234,21 @@ impl Game {
                     && read.is_empty()
                     && !consume.is_empty()
                     && sole;
+                let chooser = label.is_none()
+                    && !marks_final
+                    && read.is_empty()
+                    && consume.len() == 1
+                    && net.preset(v).all(|p| {
+                        net.graph.edges_directed(p, Direction::Outgoing).all(|e| {
+                            let u = e.target();
+                            e.weight().kind == ArcKind::Consume
+                                && net
+                                    .transition(u)
+                                    .is_some_and(|ut| ut.kind.action().is_none())
+                                && net.graph.edges_directed(u, Direction::Incoming).count() == 1
+                                && !net.postset(u).any(|(q, _)| q == net.final_place)
+                        })
+                    });
                 T {
                     consume,
                     read,
@@ -232,6 +258,7 @@ impl Game {
                     label,
                     marks_final,
                     eager,
+                    chooser,
                 }
             })
             .collect();
@@ -388,9 +415,24 @@ impl Side {
             self.game.transitions[k].eager
                 && self.game.enabled(&m, &self.game.transitions[k]).is_some()
         });
+        // A free choice: every transition that could take the token of one
+        // place, and nothing else; the others wait until it is made.
+        let choice = || {
+            let k = candidates.iter().copied().find(|&k| {
+                let t = &self.game.transitions[k];
+                t.chooser && self.game.enabled(&m, t).is_some()
+            })?;
+            let p = self.game.transitions[k].consume[0];
+            Some(
+                self.game.users[p as usize]
+                    .iter()
+                    .map(|&k| k as usize)
+                    .collect::<Vec<usize>>(),
+            )
+        };
         let chosen: Vec<usize> = match eager {
             Some(k) => vec![k],
-            None => candidates,
+            None => choice().unwrap_or_else(|| candidates.clone()),
         };
         for k in chosen {
             let t = &self.game.transitions[k];

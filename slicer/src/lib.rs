@@ -28,6 +28,7 @@
 //!    - *forward*: several producers on one remote owner feeding one place
 //!      (the merge after an `If`) merge there and forward one token;
 //!    - whatever is left crosses arc by arc.
+//!
 //!    Bundles are chosen greedily in that order; their number is the cost.
 //! 3. **Search** (`assign`). Free units are seeded with the owner they have
 //!    the most arcs to, then improved by local search: move one unit, or the
