@@ -512,7 +512,12 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
             // The unit alone, then the chain of free units around it that
             // share its owner (a join and the fork after it move together).
             let chain = chain_of(units, &unit_owner, u);
-            for group in [vec![u], chain] {
+            let groups = if chain.len() > 1 {
+                vec![vec![u], chain]
+            } else {
+                vec![chain]
+            };
+            for group in groups {
                 let current = unit_owner[u];
                 let mut candidates: Vec<Owner> = group
                     .iter()
