@@ -99,8 +99,7 @@ pub struct DroneEntry {
     #[serde(default)]
     pub script: Option<Script>,
     /// MAVLink connection (`udpin:0.0.0.0:14550`, `tcpout:...`, serial).
-    /// `connect` is accepted too, as MAVLink tools spell the option.
-    #[serde(default, alias = "connect")]
+    #[serde(default)]
     pub connection: Option<String>,
     #[serde(default)]
     pub listen: Vec<String>,
@@ -332,21 +331,6 @@ connection = "udpin:0.0.0.0:14550"
         assert!(z.connect.contains(&"tcp/127.0.0.1:9000".to_string()));
         assert_eq!(z.connect.len(), 3);
         assert!(!z.scouting);
-    }
-
-    #[test]
-    fn a_mavlink_connection_may_be_spelled_connect_as_mavlink_tools_spell_it() {
-        let f = Fleet::parse(
-            "[drones.D1]\nadapter = \"mavlink\"\nconnect = \"udpin:0.0.0.0:14550\"\n",
-            "f.toml",
-            "M",
-            &drones(),
-        )
-        .unwrap();
-        assert_eq!(
-            f.entry("D1").connection.as_deref(),
-            Some("udpin:0.0.0.0:14550")
-        );
     }
 
     #[test]
