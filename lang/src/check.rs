@@ -2380,6 +2380,8 @@ fn reserved(name: &str) -> Option<String> {
         "Signal" | "Await" => Some(format!("`{name}` synchronises branches")),
         "true" | "false" => Some(format!("`{name}` is a boolean value")),
         "_" => Some("`_` is not a name".into()),
+        // The slicer and the executor name the ground station's part so.
+        "GCS" => Some("`GCS` is the ground station's name".into()),
         _ => None,
     }
 }
