@@ -101,6 +101,98 @@ pub struct Options {
     /// before the `Signal` it waits for, in both directions between two
     /// branches): missions for the checker to catch.
     pub risky: bool,
+    /// Which statements beyond actions, `PauseFor` and blocks may appear.
+    pub constructs: Constructs,
+}
+
+/// Statements a generated mission may use beyond drone actions, `PauseFor`
+/// and SEQ/PAR blocks, which it always uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Constructs {
+    /// `If(c, Then[, Else])`.
+    pub branch: bool,
+    /// `WaitUntil(c, Body)`.
+    pub wait: bool,
+    /// `RepeatFor(n, Body)`.
+    pub repeat_for: bool,
+    /// Climbing `RepeatUntil(c, Body)` / `RepeatWhile(c, Body[, Exit])`.
+    pub repeat: bool,
+    /// `DoWhile(c, Body)`: an interruptible region.
+    pub interrupt: bool,
+    /// `PauseUntil(c)`.
+    pub pause_until: bool,
+    /// `Signal` / `Await` pairs between parallel branches.
+    pub signal: bool,
+    /// A hover beside a photo of the same drone, in parallel.
+    pub photo_hover: bool,
+}
+
+impl Constructs {
+    /// The whole language.
+    pub const ALL: Constructs = Constructs {
+        branch: true,
+        wait: true,
+        repeat_for: true,
+        repeat: true,
+        interrupt: true,
+        pause_until: true,
+        signal: true,
+        photo_hover: true,
+    };
+
+    /// What the paper's experiments use (Table 4, Listings 10-13):
+    /// `WaitUntil` and `RepeatWhile`, besides actions, pauses and blocks.
+    pub const PAPER: Constructs = Constructs {
+        branch: false,
+        wait: true,
+        repeat_for: false,
+        repeat: true,
+        interrupt: false,
+        pause_until: false,
+        signal: false,
+        photo_hover: false,
+    };
+
+    /// Everything but the structures that choose between runs (`If`,
+    /// condition loops, interruptible `Do`): every run of such a mission
+    /// takes the same path, which suits tools that explore all runs.
+    pub const WITHOUT_CHOICES: Constructs = Constructs {
+        branch: false,
+        repeat: false,
+        interrupt: false,
+        ..Constructs::ALL
+    };
+
+    fn controls(&self) -> Vec<Control> {
+        let mut v = Vec::new();
+        if self.branch {
+            v.extend([Control::IfBattery, Control::IfArea]);
+        }
+        if self.wait {
+            v.push(Control::Wait);
+        }
+        if self.repeat_for {
+            v.push(Control::RepeatFor);
+        }
+        if self.repeat {
+            v.push(Control::Climb);
+        }
+        if self.interrupt {
+            v.push(Control::Do);
+        }
+        v
+    }
+}
+
+/// The control structures a sequence may hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Control {
+    IfBattery,
+    IfArea,
+    Wait,
+    RepeatFor,
+    Climb,
+    Do,
 }
 
 impl Options {
@@ -111,6 +203,7 @@ impl Options {
             seed,
             name: "Stress".to_string(),
             risky: false,
+            constructs: Constructs::ALL,
         }
     }
 }
@@ -231,6 +324,8 @@ pub fn generate(options: &Options) -> Result<Generated, GenError> {
         rng: ChaCha8Rng::seed_from_u64(options.seed),
         nodes: matches!(options.size, Size::Nodes(_)),
         risky: options.risky,
+        constructs: options.constructs,
+        controls: options.constructs.controls(),
         drones: options.drones,
         funcs: Vec::new(),
         events: HashSet::new(),
@@ -373,6 +468,8 @@ struct Gen {
     /// Budgets count nodes (else actions).
     nodes: bool,
     risky: bool,
+    constructs: Constructs,
+    controls: Vec<Control>,
     drones: usize,
     funcs: Vec<Func>,
     events: HashSet<String>,
@@ -489,7 +586,11 @@ impl Gen {
         let k = self.rng.random_range(2..=max_k);
         // Cross-drone dependencies between branches.
         let mut pairs: Vec<(usize, usize, bool)> = Vec::new();
-        if ctx.sync && self.rng.random_bool(P_SYNC) && inner >= k + 2 * self.c_marker() {
+        if self.constructs.signal
+            && ctx.sync
+            && self.rng.random_bool(P_SYNC)
+            && inner >= k + 2 * self.c_marker()
+        {
             inner -= 2 * self.c_marker();
             let risky = self.risky && self.rng.random_bool(0.5);
             let i = self.rng.random_range(1..k);
@@ -626,7 +727,11 @@ impl Gen {
         // A group of drones mostly works in parallel sub-groups.
         let kind = if next(if group.len() >= 2 { P_PAR_GROUP } else { 0.0 }) {
             Kind::Par
-        } else if next(P_CONTROL) {
+        } else if next(if self.controls.is_empty() {
+            0.0
+        } else {
+            P_CONTROL
+        }) {
             Kind::Control
         } else if next(if group.len() == 1 && leg.since_block >= LEG {
             P_LEG_BLOCK
@@ -636,9 +741,17 @@ impl Gen {
             // A long leg of one drone gets a block of its own now and then,
             // as the paper's missions group a few actions per block.
             Kind::Leg
-        } else if next(P_SHOOT) {
+        } else if next(if self.constructs.photo_hover {
+            P_SHOOT
+        } else {
+            0.0
+        }) {
             Kind::Shoot
-        } else if next(if self.drones >= 2 { P_PAUSE_UNTIL } else { 0.0 }) {
+        } else if next(if self.drones >= 2 && self.constructs.pause_until {
+            P_PAUSE_UNTIL
+        } else {
+            0.0
+        }) {
             Kind::PauseUntil
         } else if next(P_PAUSE) && !leg.paused {
             Kind::PauseFor
@@ -724,11 +837,14 @@ impl Gen {
             sync: false,
             ..inner
         };
-        let kind = self.rng.random_range(0..6);
+        let kind = *self
+            .controls
+            .choose(&mut self.rng)
+            .expect("only chosen when some are allowed");
         match kind {
             // If on the battery or the area, with or without an else.
-            0 | 1 => {
-                let (cond, yes, no) = if kind == 0 {
+            Control::IfBattery | Control::IfArea => {
+                let (cond, yes, no) = if kind == Control::IfBattery {
                     let t = 5 * self.rng.random_range(4..=12);
                     (format!("D{}.Battery() > {t}", d + 1), "Extra", "Spare")
                 } else {
@@ -765,7 +881,7 @@ impl Gen {
                 }
             }
             // Wait for a drone (often another group's) to be airborne.
-            2 => {
+            Control::Wait => {
                 let other = self.rng.random_range(0..self.drones);
                 let body = self.seq(group, body, inner, theme, Some(format!("SEQ_Follow{tag}")));
                 Stmt::WaitUntil {
@@ -773,13 +889,13 @@ impl Gen {
                     body,
                 }
             }
-            3 => {
+            Control::RepeatFor => {
                 let count = self.rng.random_range(2..=4);
                 let body = self.seq(group, body, looped, theme, Some(format!("SEQ_Lap{tag}")));
                 Stmt::RepeatFor { count, body }
             }
             // Climb half a metre per lap until a height: ends in flight.
-            4 => {
+            Control::Climb => {
                 let h = self.rng.random_range(3..=6);
                 let climbing = Ctx {
                     climbing: true,
@@ -815,7 +931,7 @@ impl Gen {
                 }
             }
             // Work while the battery lasts.
-            _ => {
+            Control::Do => {
                 let t = 5 * self.rng.random_range(2..=4);
                 let guarded = Ctx {
                     sync: false,
@@ -958,9 +1074,15 @@ impl Gen {
             .map(|(_, v)| v)
             .sum();
         let risky = if options.risky { " --risky" } else { "" };
+        let mix = match options.constructs {
+            c if c == Constructs::ALL => "",
+            c if c == Constructs::PAPER => " --constructs paper",
+            c if c == Constructs::WITHOUT_CHOICES => " --constructs without-choices",
+            _ => " (with a chosen set of constructs)",
+        };
         let _ = writeln!(
             out,
-            "// Generated by `eamos gen --drones {} {} --seed {}{risky}`.",
+            "// Generated by `eamos gen --drones {} {} --seed {}{risky}{mix}`.",
             options.drones, options.size, options.seed
         );
         let _ = writeln!(
@@ -1144,6 +1266,32 @@ mod tests {
             o.name = bad.to_string();
             assert_eq!(generate(&o), Err(GenError::BadName(bad.to_string())));
         }
+    }
+
+    #[test]
+    fn a_construct_left_out_never_appears() {
+        let used = |c: Constructs| {
+            let mut o = Options::new(6, Size::Nodes(4000), 2);
+            o.constructs = c;
+            generate(&o).unwrap()
+        };
+        let paper = used(Constructs::PAPER);
+        let names: Vec<&str> = paper.stats.controls.keys().map(String::as_str).collect();
+        assert_eq!(
+            names,
+            ["PauseFor", "RepeatUntil", "RepeatWhile", "WaitUntil"],
+            "{names:?}"
+        );
+        assert_eq!(paper.stats.sync_pairs, 0);
+        assert!(!paper.text.contains("PAR_Shoot"));
+        assert!(paper.text.contains("--constructs paper`"));
+        let linear = used(Constructs::WITHOUT_CHOICES);
+        for choice in ["If(", "RepeatWhile(", "RepeatUntil(", "DoWhile("] {
+            assert!(!linear.text.contains(choice), "{choice}");
+        }
+        assert!(linear.stats.sync_pairs > 0);
+        assert!(linear.stats.controls.contains_key("RepeatFor"));
+        assert!(used(Constructs::ALL).stats.controls.contains_key("DoWhile"));
     }
 
     #[test]
