@@ -7,8 +7,8 @@
 //! | `TurnOn` | waits for the autopilot's heartbeat |
 //! | `PreFlightCheck` | waits until the vehicle is ready (see [`super::readiness`]) |
 //! | `Calibrate` | `MAV_CMD_PREFLIGHT_CALIBRATION` (ground pressure), on the ground only |
-//! | `Arm` | waits until ready, sets GUIDED and confirms from the heartbeat that it held, `MAV_CMD_COMPONENT_ARM_DISARM`, waits for the armed flag |
-//! | `Takeoff(h)` | `MAV_CMD_NAV_TAKEOFF`, then waits until `h` metres above where it stood |
+//! | `Arm` | waits until ready, sets GUIDED (PX4: OFFBOARD) and confirms from the heartbeat that it held, `MAV_CMD_COMPONENT_ARM_DISARM`, waits for the armed flag |
+//! | `Takeoff(h)` | `MAV_CMD_NAV_TAKEOFF` (PX4: a setpoint `h` metres above the ground in OFFBOARD), then waits until `h` metres above where it stood |
 //! | `FlyTo`, `FlyByX/Y/Z`, `ReturnHome` | `SET_POSITION_TARGET_LOCAL_NED` (resent every second), arrival judged from `LOCAL_POSITION_NED` within the tolerance |
 //! | `Hover(s)` | holds the last target for `s` seconds of mission time |
 //! | `Land` | mode LAND, waits until on the ground |
@@ -22,6 +22,17 @@
 //! keeps the EKF-frame position of that ground point (the anchor) and
 //! converts every target and every reported position through it, so GPS
 //! drift between EKF start and arming does not shift the mission.
+//!
+//! # PX4
+//! PX4 flies position targets in OFFBOARD, which it enters only while
+//! setpoints are streaming (more than 2 Hz) and leaves (a failsafe) as soon
+//! as they stop. So for a PX4 vehicle the adapter streams its current
+//! setpoint at 10 Hz from before the switch to OFFBOARD until the drone has
+//! landed or is disarmed: the ground point under the drone before arming,
+//! then every target. PX4 has no take-off in OFFBOARD other than a setpoint
+//! above the ground, which is what `Takeoff` sends. PX4 does not send
+//! EKF_STATUS_REPORT; readiness comes from the fix, the pre-arm bit of
+//! SYS_STATUS and the local position.
 //!
 //! # Safety rules it keeps
 //! - Never fight the pilot: if the autopilot leaves GUIDED during a motion
@@ -161,6 +172,9 @@ impl fmt::Debug for MavlinkOptions {
 /// min_speed = 0.3            # m/s, for motion timeouts
 /// fleet_origin = [46.6139, 14.2650, 446.0]   # lat, lon, alt: home from GPS
 /// rearm_for_takeoff = true
+/// ack_timeout = 1.5          # seconds to wait for a COMMAND_ACK before resending
+/// command_attempts = 3       # sends of one command before giving up
+/// motion_margin = 30         # seconds added to every motion's timeout
 /// ```
 #[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -173,6 +187,9 @@ pub struct MavlinkSettings {
     pub min_speed: Option<f64>,
     pub fleet_origin: Option<[f64; 3]>,
     pub rearm_for_takeoff: Option<bool>,
+    pub ack_timeout: Option<f64>,
+    pub command_attempts: Option<u32>,
+    pub motion_margin: Option<f64>,
 }
 
 impl MavlinkSettings {
@@ -183,11 +200,20 @@ impl MavlinkSettings {
             ("link_timeout", self.link_timeout),
             ("arrival_tolerance", self.arrival_tolerance),
             ("min_speed", self.min_speed),
+            ("ack_timeout", self.ack_timeout),
+            ("motion_margin", self.motion_margin),
         ] {
             if let Some(v) = v {
                 if !(v.is_finite() && v > 0.0 && v < 1.0e6) {
                     return Err(format!("`{name}` must be a positive number, not {v}"));
                 }
+            }
+        }
+        if let Some(n) = self.command_attempts {
+            if !(1..=20).contains(&n) {
+                return Err(format!(
+                    "`command_attempts` must be between 1 and 20, not {n}"
+                ));
             }
         }
         if self.target_system == Some(0) {
@@ -226,6 +252,27 @@ impl MavlinkSettings {
         if let Some(r) = self.rearm_for_takeoff {
             options.rearm_for_takeoff = r;
         }
+        if let Some(t) = self.ack_timeout {
+            options.commands.ack_timeout = Duration::from_secs_f64(t);
+        }
+        if let Some(n) = self.command_attempts {
+            options.commands.attempts = n;
+        }
+        if let Some(t) = self.motion_margin {
+            options.motion_margin = Duration::from_secs_f64(t);
+        }
+    }
+
+    /// Reads the settings and checks them in one go, so that a fleet
+    /// file's parser reports a bad number at its line and column.
+    pub fn deserialize_checked<'de, D>(deserializer: D) -> Result<Option<Self>, D::Error>
+    where
+        D: serde::Deserializer<'de>,
+    {
+        use serde::Deserialize;
+        let settings = MavlinkSettings::deserialize(deserializer)?;
+        settings.validate().map_err(serde::de::Error::custom)?;
+        Ok(Some(settings))
     }
 }
 
@@ -298,6 +345,9 @@ struct Shared {
     telemetry: watch::Sender<Telemetry>,
     frame: Mutex<FrameState>,
     flight: Mutex<Flight>,
+    /// PX4: the setpoint streamed to keep OFFBOARD alive (EKF frame), and
+    /// since when the stream runs.
+    offboard: Mutex<Option<(Ned, Instant)>>,
     commands: tokio::sync::Mutex<()>,
     stop: CancellationToken,
 }
@@ -370,6 +420,7 @@ impl MavlinkAdapter {
             telemetry,
             frame: Mutex::new(FrameState { anchor: None, home }),
             flight: Mutex::new(Flight::default()),
+            offboard: Mutex::new(None),
             commands: tokio::sync::Mutex::new(()),
             stop: CancellationToken::new(),
         });
@@ -377,6 +428,7 @@ impl MavlinkAdapter {
         tokio::spawn(heartbeat_task(shared.clone()));
         tokio::spawn(monitor_task(shared.clone()));
         tokio::spawn(stream_task(shared.clone()));
+        tokio::spawn(setpoint_task(shared.clone()));
         Ok(MavlinkAdapter { shared })
     }
 
@@ -451,6 +503,40 @@ impl Adapter for MavlinkAdapter {
                 Ok(()) => String::new(),
                 Err(e) => e.to_string(),
             },
+        });
+        result
+    }
+
+    /// Relative moves start from the last position target sent, else from
+    /// where the vehicle is (as `FlyByX` computes its target).
+    fn motion_reference(&self) -> Result<Vec3, ActionError> {
+        self.shared.motion_base("a relative move")
+    }
+
+    /// A resumed motion is a position target like `FlyTo`'s: the autopilot
+    /// flies it in GUIDED and the call ends within the arrival tolerance.
+    async fn fly_to_target(
+        &self,
+        call: &ActionCall,
+        target: Vec3,
+        cancel: CancellationToken,
+    ) -> Result<(), ActionError> {
+        let action = MultirotorAction::parse(call)?;
+        if !target.is_finite() {
+            return Err(ActionError::bad_arguments(
+                &call.name,
+                format!("the target {target} is not finite"),
+            ));
+        }
+        let s = &self.shared;
+        let result = s.fly_to(action.name(), target, &cancel).await;
+        s.log(AdapterEvent::Completed {
+            action: call.name.clone(),
+            outcome: match &result {
+                Ok(()) => "ok".to_string(),
+                Err(e) => e.kind().to_string(),
+            },
+            detail: format!("resumed towards {target}"),
         });
         result
     }
@@ -529,10 +615,7 @@ impl Shared {
     fn flyable(&self, action: &str) -> Result<Autopilot, ActionError> {
         match self.autopilot() {
             Some(Autopilot::ArduPilot) => Ok(Autopilot::ArduPilot),
-            Some(Autopilot::Px4) => Err(ActionError::refused(
-                action,
-                "the vehicle runs PX4, which the MAVLink adapter does not fly yet (OFFBOARD needs setpoints streamed before the mode switch and a take-off of its own); only its modes are mapped",
-            )),
+            Some(Autopilot::Px4) => Ok(Autopilot::Px4),
             Some(Autopilot::Other(n)) => Err(ActionError::refused(
                 action,
                 format!("the autopilot (MAV_AUTOPILOT {n}) is neither ArduPilot nor PX4; its flight modes are unknown"),
@@ -829,6 +912,9 @@ impl Shared {
         if self.watched.borrow().vehicle.custom_mode() == Some(wanted) {
             return Ok(());
         }
+        if autopilot == Autopilot::Px4 && role == ModeRole::Guided {
+            self.start_offboard_stream(action).await?;
+        }
         let mut overridden_by = None;
         for _ in 0..3 {
             self.command(
@@ -886,6 +972,37 @@ impl Shared {
                 overridden_by.unwrap_or_default()
             ),
         ))
+    }
+
+    /// PX4 enters OFFBOARD only with setpoints already streaming: streams
+    /// the last target, or the point where the drone is, and lets the
+    /// stream run for a moment before the mode switch.
+    async fn start_offboard_stream(&self, action: &str) -> Result<(), ActionError> {
+        let since = {
+            let mut stream = self.offboard.lock().unwrap_or_else(|p| p.into_inner());
+            match *stream {
+                Some((_, since)) => since,
+                None => {
+                    let here = self.watched.borrow().vehicle.local.map(|l| l.position);
+                    let here = here.ok_or_else(|| {
+                        ActionError::failed(
+                            action,
+                            "no local position to stream as an OFFBOARD setpoint",
+                        )
+                    })?;
+                    let now = Instant::now();
+                    *stream = Some((here, now));
+                    now
+                }
+            }
+        };
+        sleep_until(since + OFFBOARD_LEAD).await;
+        Ok(())
+    }
+
+    /// Stops streaming OFFBOARD setpoints (landed, disarmed).
+    fn stop_offboard_stream(&self) {
+        *self.offboard.lock().unwrap_or_else(|p| p.into_inner()) = None;
     }
 
     async fn perform(
@@ -1035,6 +1152,7 @@ impl Shared {
                 })
             })?;
         }
+        self.stop_offboard_stream();
         self.update_flight(|f| {
             f.mission_armed = false;
             f.last_target = None;
@@ -1064,6 +1182,7 @@ impl Shared {
         }
         let may_rearm = || self.flight().mission_armed && self.options.rearm_for_takeoff;
         let mut rearmed = false;
+        let autopilot = self.flyable(action)?;
         let ground = loop {
             if !self.watched.borrow().vehicle.armed() {
                 if !may_rearm() {
@@ -1082,6 +1201,12 @@ impl Shared {
                 Self::position(&w, self.frame().anchor.unwrap_or_default())
             }
             .ok_or_else(|| ActionError::failed(action, "no local position to take off from"))?;
+            if autopilot == Autopilot::Px4 {
+                // PX4 takes off in OFFBOARD by a setpoint above the ground.
+                let above = Vec3::new(ground.x, ground.y, ground.z + height);
+                self.send_target(action, above).await;
+                break ground;
+            }
             match self
                 .command_raw(
                     action,
@@ -1233,6 +1358,16 @@ impl Shared {
     }
 
     async fn send_ned(&self, ned: Ned) {
+        if self.autopilot() == Some(Autopilot::Px4) {
+            let mut stream = self.offboard.lock().unwrap_or_else(|p| p.into_inner());
+            let since = stream.map_or_else(Instant::now, |(_, since)| since);
+            *stream = Some((ned, since));
+        }
+        self.transmit_ned(ned).await;
+    }
+
+    /// Sends one position target, remembering nothing.
+    async fn transmit_ned(&self, ned: Ned) {
         let Some(target) = self.watched.borrow().vehicle.target else {
             return;
         };
@@ -1441,6 +1576,7 @@ impl Shared {
         match landed {
             Ok(()) => {
                 let still_armed = self.watched.borrow().vehicle.armed();
+                self.stop_offboard_stream();
                 self.update_flight(|f| {
                     f.last_target = None;
                     f.mission_armed = still_armed;
@@ -1448,7 +1584,9 @@ impl Shared {
                 Ok(())
             }
             Err(Halt::Cancelled) => {
-                // Stop descending: back to guided, holding here.
+                // Stop descending: back to guided, holding here (the hold
+                // point first: PX4 needs it streaming to enter OFFBOARD).
+                self.hold(action).await;
                 let _ = self
                     .ensure_mode(action, ModeRole::Guided, &CancellationToken::new())
                     .await;
@@ -1603,6 +1741,32 @@ async fn monitor_task(s: Arc<Shared>) {
     }
 }
 
+/// How often OFFBOARD setpoints are streamed to PX4 (it needs more than
+/// 2 Hz), and how long the stream runs before the switch to OFFBOARD.
+const OFFBOARD_PERIOD: Duration = Duration::from_millis(100);
+const OFFBOARD_LEAD: Duration = Duration::from_millis(600);
+
+/// Streams the OFFBOARD setpoint to a PX4 vehicle while there is one.
+async fn setpoint_task(s: Arc<Shared>) {
+    loop {
+        tokio::select! {
+            _ = s.stop.cancelled() => return,
+            _ = sleep(OFFBOARD_PERIOD) => {}
+        }
+        if s.autopilot() != Some(Autopilot::Px4) || s.watched.borrow().link_lost {
+            continue;
+        }
+        let setpoint = s
+            .offboard
+            .lock()
+            .unwrap_or_else(|p| p.into_inner())
+            .map(|(ned, _)| ned);
+        if let Some(ned) = setpoint {
+            s.transmit_ned(ned).await;
+        }
+    }
+}
+
 /// Asks for the messages the adapter needs, and asks again for any that
 /// stop coming (an autopilot that rebooted forgets what it was asked).
 async fn stream_task(s: Arc<Shared>) {
@@ -1620,7 +1784,12 @@ async fn stream_task(s: Arc<Shared>) {
             continue;
         }
         let now = Instant::now();
+        let px4 = s.autopilot() == Some(Autopilot::Px4);
         for &(id, name, hz) in STREAMS {
+            // PX4 has no EKF_STATUS_REPORT.
+            if px4 && id == 193 {
+                continue;
+            }
             let period = Duration::from_secs_f64(1.0 / hz);
             let stale_after = (period * 3).max(Duration::from_secs(3));
             let flowing = last_seen.get(&id).is_some_and(|at| now - *at < stale_after);

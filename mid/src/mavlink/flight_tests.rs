@@ -12,12 +12,16 @@ use tokio::time::timeout;
 
 use super::adapter::{MavlinkAdapter, MavlinkOptions};
 use super::address::ConnectAddress;
-use super::dialect::{MavAutopilot, MavMessage, MavModeFlag, MavState, MavType, HEARTBEAT_DATA};
+use super::command::{command_long, CommandError, CommandPolicy, Target};
+use super::dialect::MavMessage;
+use super::dialect::{
+    MavCmd, MavFrame, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA,
+};
 use super::frame::Ned;
 use super::link::Link;
-use super::modes::CopterMode;
+use super::modes::{Autopilot, CopterMode, Px4Mode};
 use super::readiness::Missing;
-use super::vehicle::{SimVehicle, SimVehicleOptions, VehicleSnapshot};
+use super::vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
 use crate::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
 use crate::log::{AdapterEvent, LogRecord, MemorySink};
 
@@ -547,40 +551,268 @@ async fn the_adapter_flies_over_tcp_to_a_listening_vehicle() {
     run(&a, "Land", &[]).await.unwrap();
 }
 
+/// A PX4 test vehicle at twice real time: its offboard-loss time (1 s
+/// simulated) stays well above the adapter's 10 Hz setpoint period.
+fn px4(v: &mut SimVehicleOptions) {
+    v.autopilot = Firmware::Px4;
+    v.speed = 2.0;
+}
+
+fn px4_mode(m: Px4Mode) -> u32 {
+    m.custom_mode()
+}
+
 #[tokio::test]
-async fn a_px4_vehicle_is_refused_with_what_is_missing_rather_than_flown_half_right() {
-    let gcs = MavlinkAdapter::connect("Drone1", "udpin:127.0.0.1:0", MavlinkOptions::default())
-        .await
-        .unwrap();
-    let port = gcs.local_addr().unwrap().port();
-    let px4 = Link::open(
-        &ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
+async fn a_px4_vehicle_is_flown_in_offboard_with_setpoints_streaming_before_the_switch() {
+    let r = rig(px4, |_| {}).await;
+    let (a, v) = (&r.adapter, &r.vehicle);
+    run(a, "Arm", &[]).await.unwrap();
+    assert!(v.snapshot().armed);
+    assert_eq!(v.snapshot().custom_mode, px4_mode(Px4Mode::Offboard));
+
+    // No take-off command: a setpoint above the ground in OFFBOARD.
+    run(a, "Takeoff", &[2.0]).await.unwrap();
+    assert!(
+        (v.snapshot().position.z - 2.0).abs() <= 0.3,
+        "{:?}",
+        v.snapshot()
+    );
+    for (action, args, expected) in [
+        ("FlyByX", vec![2.0], Vec3::new(2.0, 0.0, 2.0)),
+        ("FlyTo", vec![1.0, -1.0, 3.0], Vec3::new(1.0, -1.0, 3.0)),
+        ("Hover", vec![2.0], Vec3::new(1.0, -1.0, 3.0)),
+        ("ReturnHome", vec![], Vec3::new(0.0, 0.0, 3.0)),
+    ] {
+        run(a, action, &args).await.unwrap();
+        let there = v.snapshot().position;
+        assert!(
+            near(there, expected, 0.4),
+            "{action}: vehicle at {there}, expected {expected}"
+        );
+        // Still in OFFBOARD: the stream never lapsed.
+        assert_eq!(v.snapshot().custom_mode, px4_mode(Px4Mode::Offboard));
+    }
+    run(a, "Land", &[]).await.unwrap();
+    assert!(v.snapshot().on_ground);
+    assert_eq!(v.snapshot().custom_mode, px4_mode(Px4Mode::AutoLand));
+    run(a, "Disarm", &[]).await.unwrap();
+    assert!(!v.snapshot().armed);
+
+    let notes = notes(&r.log);
+    assert!(
+        notes.iter().any(|n| n.starts_with("found PX4 vehicle")),
+        "{notes:?}"
+    );
+    assert!(
+        notes.iter().any(|n| n == "mode OFFBOARD set and confirmed"),
+        "{notes:?}"
+    );
+    // Nothing was refused on the way: no take-off command, no OFFBOARD
+    // switch before the stream.
+    assert!(
+        !notes.iter().any(|n| n.contains("not available")),
+        "{notes:?}"
+    );
+}
+
+#[tokio::test]
+async fn the_px4_vehicle_refuses_offboard_without_a_setpoint_stream() {
+    let gcs = Link::open(
+        &ConnectAddress::UdpIn("127.0.0.1:0".to_string()),
         MavHeader {
-            system_id: 1,
-            component_id: 1,
+            system_id: 255,
+            component_id: 190,
             sequence: 0,
         },
     )
     .await
     .unwrap();
-    let beat = tokio::spawn(async move {
-        loop {
-            let _ = px4
-                .send(&MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-                    custom_mode: 3 << 16,
-                    mavtype: MavType::MAV_TYPE_QUADROTOR,
-                    autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
-                    base_mode: MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-                    system_status: MavState::MAV_STATE_STANDBY,
-                    mavlink_version: 3,
-                }))
-                .await;
-            tokio::time::sleep(Duration::from_millis(200)).await;
+    let port = gcs.local_addr().unwrap().port();
+    let v = SimVehicle::start(
+        SimVehicleOptions {
+            connect: ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
+            ready_after: 0.5,
+            ..SimVehicleOptions::default()
         }
-    });
-    let e = run(&gcs, "Takeoff", &[2.0]).await.unwrap_err();
-    assert_eq!(e.kind(), "refused");
-    assert!(e.to_string().contains("runs PX4"), "{e}");
-    assert_eq!(gcs.telemetry().borrow().mode, FlightMode::Standby);
-    beat.abort();
+        .tap(px4),
+    )
+    .await
+    .unwrap();
+    vehicle_until(&v, "ready", |s| s.time > 1.0).await;
+    // Wait for its heartbeat, so that the listener knows where to answer.
+    let mut rx = gcs.subscribe();
+    timeout(BOUND, async {
+        loop {
+            if let Ok(r) = rx.recv().await {
+                if matches!(r.message, MavMessage::HEARTBEAT(_)) {
+                    return;
+                }
+            }
+        }
+    })
+    .await
+    .expect("a heartbeat");
+    let target = Target {
+        system: 1,
+        component: 1,
+    };
+    let offboard = Autopilot::Px4.set_mode_params(px4_mode(Px4Mode::Offboard));
+    let e = command_long(
+        &gcs,
+        target,
+        MavCmd::MAV_CMD_DO_SET_MODE,
+        offboard,
+        &CommandPolicy::default(),
+    )
+    .await
+    .unwrap_err();
+    let CommandError::Refused {
+        result, statustext, ..
+    } = &e
+    else {
+        panic!("expected a refusal, got {e:?}");
+    };
+    assert_eq!(result, "MAV_RESULT_TEMPORARILY_REJECTED");
+    assert!(
+        statustext
+            .as_deref()
+            .is_some_and(|t| t.contains("OFFBOARD")),
+        "{e}"
+    );
+    assert_eq!(v.snapshot().custom_mode, px4_mode(Px4Mode::Manual));
+    // With setpoints streaming, the same switch is accepted.
+    let stream = async {
+        loop {
+            let _ = gcs
+                .send(&MavMessage::SET_POSITION_TARGET_LOCAL_NED(
+                    SET_POSITION_TARGET_LOCAL_NED_DATA {
+                        target_system: 1,
+                        target_component: 1,
+                        coordinate_frame: MavFrame::MAV_FRAME_LOCAL_NED,
+                        type_mask: PositionTargetTypemask::from_bits_truncate(3576),
+                        ..Default::default()
+                    },
+                ))
+                .await;
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+    };
+    let switched = async {
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        command_long(
+            &gcs,
+            target,
+            MavCmd::MAV_CMD_DO_SET_MODE,
+            offboard,
+            &CommandPolicy::default(),
+        )
+        .await
+    };
+    let result = tokio::select! {
+        r = switched => r,
+        _ = stream => unreachable!(),
+    };
+    assert_eq!(result, Ok(()));
+    vehicle_until(&v, "OFFBOARD", |s| {
+        s.custom_mode == px4_mode(Px4Mode::Offboard)
+    })
+    .await;
+    // The stream stopped: the offboard-loss failsafe leaves OFFBOARD.
+    vehicle_until(&v, "the offboard-loss failsafe", |s| {
+        s.custom_mode == px4_mode(Px4Mode::AutoLoiter)
+    })
+    .await;
 }
+
+#[tokio::test]
+async fn when_the_ground_station_stops_streaming_a_flying_px4_vehicle_leaves_offboard_and_holds() {
+    let r = rig(px4, |_| {}).await;
+    run(&r.adapter, "Arm", &[]).await.unwrap();
+    run(&r.adapter, "Takeoff", &[2.0]).await.unwrap();
+    let Rig {
+        adapter, vehicle, ..
+    } = r;
+    // The ground station goes away: its setpoint stream with it.
+    drop(adapter);
+    let s = vehicle_until(&vehicle, "the offboard-loss failsafe", |s| {
+        s.custom_mode == px4_mode(Px4Mode::AutoLoiter)
+    })
+    .await;
+    assert!(s.armed && !s.on_ground, "it holds in the air: {s:?}");
+}
+
+#[tokio::test]
+async fn a_px4_takeoff_command_climbs_in_auto_takeoff_and_then_holds() {
+    let gcs = Link::open(
+        &ConnectAddress::UdpIn("127.0.0.1:0".to_string()),
+        MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        },
+    )
+    .await
+    .unwrap();
+    let port = gcs.local_addr().unwrap().port();
+    let v = SimVehicle::start(
+        SimVehicleOptions {
+            connect: ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
+            ready_after: 0.5,
+            ..SimVehicleOptions::default()
+        }
+        .tap(px4),
+    )
+    .await
+    .unwrap();
+    vehicle_until(&v, "ready", |s| s.time > 1.0).await;
+    let mut rx = gcs.subscribe();
+    timeout(BOUND, async {
+        while !matches!(
+            rx.recv().await.map(|r| r.message.clone()),
+            Ok(MavMessage::HEARTBEAT(_))
+        ) {}
+    })
+    .await
+    .expect("a heartbeat");
+    let target = Target {
+        system: 1,
+        component: 1,
+    };
+    let policy = CommandPolicy::default();
+    let takeoff = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f32::NAN];
+    // Not armed: refused.
+    let e = command_long(&gcs, target, MavCmd::MAV_CMD_NAV_TAKEOFF, takeoff, &policy)
+        .await
+        .unwrap_err();
+    assert!(e.to_string().contains("disarmed"), "{e}");
+    command_long(
+        &gcs,
+        target,
+        MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        &policy,
+    )
+    .await
+    .unwrap();
+    command_long(&gcs, target, MavCmd::MAV_CMD_NAV_TAKEOFF, takeoff, &policy)
+        .await
+        .unwrap();
+    vehicle_until(&v, "AUTO.TAKEOFF", |s| {
+        s.custom_mode == px4_mode(Px4Mode::AutoTakeoff)
+    })
+    .await;
+    let s = vehicle_until(&v, "AUTO.LOITER at the default height", |s| {
+        s.custom_mode == px4_mode(Px4Mode::AutoLoiter)
+    })
+    .await;
+    assert!((s.position.z - 2.5).abs() < 0.3, "{s:?}");
+}
+
+trait Tap: Sized {
+    fn tap(mut self, f: impl FnOnce(&mut Self)) -> Self {
+        f(&mut self);
+        self
+    }
+}
+
+impl Tap for SimVehicleOptions {}

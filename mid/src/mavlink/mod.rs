@@ -1,5 +1,6 @@
-//! Flying MAVLink autopilots (ArduPilot first, PX4 mapped): the adapter the
-//! executor drives, and a MAVLink vehicle built on the simulator for tests.
+//! Flying MAVLink autopilots (ArduPilot copters in GUIDED, PX4 in OFFBOARD):
+//! the adapter the executor drives, and a MAVLink vehicle built on the
+//! simulator for tests.
 //!
 //! The pieces are kept apart so that each can be tested on its own:
 //!
@@ -18,7 +19,7 @@
 //!   incoming messages.
 //! - [`adapter`]: [`MavlinkAdapter`], the [`crate::Adapter`] over all of it.
 //! - [`vehicle`]: [`SimVehicle`], the simulator's kinematics behind a
-//!   MAVLink endpoint that behaves like an ArduPilot copter.
+//!   MAVLink endpoint that behaves like an ArduPilot copter, or like PX4.
 
 pub mod adapter;
 pub mod address;
@@ -37,7 +38,7 @@ pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings}
 pub use address::ConnectAddress;
 pub use command::CommandError;
 pub use readiness::{Missing, NotReady, Readiness};
-pub use vehicle::{SimVehicle, SimVehicleOptions};
+pub use vehicle::{Firmware, SimVehicle, SimVehicleOptions};
 
 /// The dialect every connection speaks: ardupilotmega includes common.
 pub use mavlink::dialects::ardupilotmega as dialect;

@@ -5,20 +5,11 @@
 //! layer's [`FlightMode`].
 //!
 //! # PX4
-//! PX4's modes are mapped (decoding, naming, the parameters to set them)
-//! but the adapter does not fly PX4 yet. What is missing:
-//! - OFFBOARD must be entered while setpoints are already streaming (at
-//!   least 2 Hz) and is left as soon as they stop; the adapter streams
-//!   targets during motions but not before the mode switch.
-//! - Take-off in OFFBOARD is a climbing position setpoint, not
-//!   `MAV_CMD_NAV_TAKEOFF` (which PX4 flies in AUTO.TAKEOFF, then expects a
-//!   switch to OFFBOARD).
-//! - PX4 does not send ArduPilot's `EKF_STATUS_REPORT`; readiness would
-//!   come from `ESTIMATOR_STATUS` or the health bits of `SYS_STATUS`.
-//! - None of it is tested against PX4 SITL.
-//!
-//! The adapter therefore refuses flight actions on a PX4 vehicle with a
-//! message saying so, rather than fly it half right.
+//! PX4 flies the adapter's position targets in OFFBOARD, lands in AUTO.LAND
+//! and holds in AUTO.LOITER. `MAV_CMD_DO_SET_MODE` takes PX4's main mode in
+//! param2 and its sub-mode in param3. How the adapter keeps OFFBOARD alive
+//! (a setpoint stream from before the switch) is described in
+//! [`super::adapter`].
 
 use std::fmt;
 

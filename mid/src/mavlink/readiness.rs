@@ -115,7 +115,8 @@ impl Readiness {
             MavMessage::LOCAL_POSITION_NED(_) => self.local_position = true,
             MavMessage::STATUSTEXT(t) => {
                 if let Ok(text) = t.text.to_str() {
-                    if text.starts_with("PreArm") {
+                    // ArduPilot's pre-arm texts, and PX4's.
+                    if text.starts_with("PreArm") || text.starts_with("Preflight Fail") {
                         self.prearm_text = Some(text.trim().to_string());
                     }
                 }

@@ -30,6 +30,23 @@
 //!   seconds (ArduPilot's DISARM_DELAY): it disarms itself. LAND disarms on
 //!   touchdown.
 //!
+//! With `autopilot = Firmware::Px4` it behaves like PX4 instead where PX4
+//! differs in ways a ground station must handle:
+//! - HEARTBEAT says `MAV_AUTOPILOT_PX4`, modes are PX4's (main and sub-mode
+//!   packed in `custom_mode`): MANUAL at boot, POSCTL, ALTCTL, STABILIZED,
+//!   AUTO.LOITER, AUTO.TAKEOFF, AUTO.LAND, AUTO.RTL, OFFBOARD; no GUIDED.
+//! - Telemetry streams from boot without being asked (PX4's default
+//!   streams on a ground-station link); no EKF_STATUS_REPORT.
+//! - OFFBOARD is refused (`MAV_RESULT_TEMPORARILY_REJECTED`) unless
+//!   SET_POSITION_TARGET_LOCAL_NED setpoints have been arriving, the last
+//!   within `offboard_loss_after` seconds; in OFFBOARD, when the stream
+//!   stops for that long, it leaves OFFBOARD for AUTO.LOITER (PX4's
+//!   offboard-loss failsafe) and says so.
+//! - Take-off: armed in OFFBOARD, a setpoint above the ground makes it
+//!   climb; or `MAV_CMD_NAV_TAKEOFF` (param7 an altitude above sea level,
+//!   NaN for the default 2.5 m) climbs in AUTO.TAKEOFF and then holds in
+//!   AUTO.LOITER. There is no GUIDED take-off.
+//!
 //! On UDP it talks like SITL started with `--out`: from a port of its own
 //! to the ground station's (`udpout:`), answering whoever it hears; it can
 //! also listen (`udpin:`, `tcpin:` like SITL's `tcp:5760`).
@@ -62,7 +79,10 @@ use super::dialect::{
 };
 use super::frame::{Geodetic, Ned};
 use super::link::{Link, Received};
-use super::modes::CopterMode;
+use super::modes::{CopterMode, Px4Mode};
+
+/// PX4's default take-off height (`MIS_TAKEOFF_ALT`), metres.
+const PX4_TAKEOFF_HEIGHT: f64 = 2.5;
 
 /// ArduPilot's magic number that forces a disarm in flight.
 const FORCE_DISARM: f32 = 21196.0;
@@ -96,6 +116,19 @@ pub struct SimVehicleOptions {
     /// disarms itself.
     pub idle_disarm_after: f64,
     pub kinematics: MultirotorConfig,
+    /// Whose behaviour it imitates.
+    pub autopilot: Firmware,
+    /// PX4: simulated seconds without a setpoint after which OFFBOARD is
+    /// unavailable, or left for AUTO.LOITER (PX4's `COM_OF_LOSS_T`).
+    pub offboard_loss_after: f64,
+}
+
+/// The autopilot firmware a test vehicle imitates.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Firmware {
+    #[default]
+    ArduPilot,
+    Px4,
 }
 
 impl Default for SimVehicleOptions {
@@ -114,6 +147,8 @@ impl Default for SimVehicleOptions {
             refuse_arming: None,
             idle_disarm_after: 10.0,
             kinematics: MultirotorConfig::default(),
+            autopilot: Firmware::ArduPilot,
+            offboard_loss_after: 1.0,
         }
     }
 }
@@ -147,6 +182,12 @@ impl SimVehicleOptions {
                 return Err(format!("the RC switch time must be zero or more, not {t}"));
             }
         }
+        if !(self.offboard_loss_after.is_finite() && self.offboard_loss_after > 0.0) {
+            return Err(format!(
+                "the offboard loss time must be above zero, not {}",
+                self.offboard_loss_after
+            ));
+        }
         if self.system_id == 0 {
             return Err("system id 0 is the broadcast address".to_string());
         }
@@ -171,7 +212,7 @@ pub struct VehicleSnapshot {
 pub struct SimVehicle {
     stop: CancellationToken,
     silent: watch::Sender<bool>,
-    pilot: tokio::sync::mpsc::UnboundedSender<CopterMode>,
+    pilot: tokio::sync::mpsc::UnboundedSender<u32>,
     snapshot: watch::Receiver<VehicleSnapshot>,
     local: Option<SocketAddr>,
     done: tokio::task::JoinHandle<()>,
@@ -235,7 +276,12 @@ impl SimVehicle {
     /// The pilot flips the RC mode switch to `mode` (a pilot taking over,
     /// or the switch read at boot).
     pub fn rc_select(&self, mode: CopterMode) {
-        let _ = self.pilot.send(mode);
+        let _ = self.pilot.send(mode.custom_mode());
+    }
+
+    /// The pilot selects a mode by its `custom_mode` number (a PX4 mode).
+    pub fn rc_select_custom(&self, custom_mode: u32) {
+        let _ = self.pilot.send(custom_mode);
     }
 
     /// The vehicle's state now.
@@ -272,12 +318,127 @@ const STREAMABLE: &[(u32, MavDataStream)] = &[
     (245, MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS), // EXTENDED_SYS_STATE
 ];
 
+/// What a mode makes the copter do, whichever firmware numbers it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Role {
+    /// A pilot flies it (sticks centred: it holds).
+    Manual,
+    /// It holds position by itself.
+    Hold,
+    /// It flies position targets from the ground station (GUIDED, OFFBOARD).
+    Guided,
+    Land,
+    Rtl,
+    /// PX4's AUTO.TAKEOFF: climbs, then holds.
+    Takeoff,
+}
+
+/// A flight mode of the imitated firmware.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Mode {
+    firmware: Firmware,
+    custom: u32,
+}
+
+impl Mode {
+    fn copter(m: CopterMode) -> Mode {
+        Mode {
+            firmware: Firmware::ArduPilot,
+            custom: m.custom_mode(),
+        }
+    }
+
+    fn px4(m: Px4Mode) -> Mode {
+        Mode {
+            firmware: Firmware::Px4,
+            custom: m.custom_mode(),
+        }
+    }
+
+    /// The mode at boot, and the one the RC switch selects.
+    fn boot(firmware: Firmware) -> Mode {
+        match firmware {
+            Firmware::ArduPilot => Mode::copter(CopterMode::Stabilize),
+            Firmware::Px4 => Mode::px4(Px4Mode::Manual),
+        }
+    }
+
+    fn for_role(firmware: Firmware, role: Role) -> Mode {
+        match (firmware, role) {
+            (Firmware::ArduPilot, Role::Land) => Mode::copter(CopterMode::Land),
+            (Firmware::ArduPilot, Role::Rtl) => Mode::copter(CopterMode::Rtl),
+            (Firmware::ArduPilot, Role::Guided) => Mode::copter(CopterMode::Guided),
+            (Firmware::ArduPilot, _) => Mode::copter(CopterMode::Loiter),
+            (Firmware::Px4, Role::Land) => Mode::px4(Px4Mode::AutoLand),
+            (Firmware::Px4, Role::Rtl) => Mode::px4(Px4Mode::AutoRtl),
+            (Firmware::Px4, Role::Guided) => Mode::px4(Px4Mode::Offboard),
+            (Firmware::Px4, Role::Takeoff) => Mode::px4(Px4Mode::AutoTakeoff),
+            (Firmware::Px4, _) => Mode::px4(Px4Mode::AutoLoiter),
+        }
+    }
+
+    /// What the mode does, or `None` when the firmware has no such mode
+    /// or the test vehicle does not simulate it.
+    fn role_of(firmware: Firmware, custom: u32) -> Option<Role> {
+        match firmware {
+            Firmware::ArduPilot => {
+                use CopterMode::*;
+                Some(match CopterMode::from_custom_mode(custom)? {
+                    Stabilize | AltHold => Role::Manual,
+                    Loiter | PosHold | Brake => Role::Hold,
+                    Guided => Role::Guided,
+                    Land => Role::Land,
+                    Rtl => Role::Rtl,
+                    _ => return None,
+                })
+            }
+            Firmware::Px4 => {
+                use Px4Mode::*;
+                Some(match Px4Mode::from_custom_mode(custom)? {
+                    Manual | AltCtl | PosCtl | Stabilized => Role::Manual,
+                    AutoLoiter => Role::Hold,
+                    Offboard => Role::Guided,
+                    AutoLand => Role::Land,
+                    AutoRtl => Role::Rtl,
+                    AutoTakeoff => Role::Takeoff,
+                    _ => return None,
+                })
+            }
+        }
+    }
+
+    fn role(self) -> Role {
+        Mode::role_of(self.firmware, self.custom).unwrap_or(Role::Manual)
+    }
+
+    fn name(self) -> String {
+        match self.firmware {
+            Firmware::ArduPilot => super::modes::Autopilot::ArduPilot.mode_name(self.custom),
+            Firmware::Px4 => super::modes::Autopilot::Px4.mode_name(self.custom),
+        }
+    }
+
+    /// Whether the mode needs the EKF's position (an origin).
+    fn needs_position(self) -> bool {
+        match self.role() {
+            Role::Manual => {
+                self.custom == Px4Mode::PosCtl.custom_mode() && self.firmware == Firmware::Px4
+            }
+            Role::Land => false,
+            _ => true,
+        }
+    }
+}
+
 /// The vehicle's state, owned by its one task.
 struct Vehicle {
     o: SimVehicleOptions,
     kin: Multirotor,
     time: f64,
-    mode: CopterMode,
+    mode: Mode,
+    /// PX4: when the last position setpoint came, and where it was (EKF
+    /// frame), whatever the mode.
+    setpoint: Option<(f64, Ned)>,
     /// Requested message intervals (simulated seconds) and when each is
     /// next due.
     streams: HashMap<u32, (f64, f64)>,
@@ -297,11 +458,13 @@ struct Vehicle {
 impl Vehicle {
     fn new(o: SimVehicleOptions) -> Self {
         let kin = Multirotor::new(o.kinematics.clone());
+        let boot_mode = Mode::boot(o.autopilot);
         Self {
             o,
             kin,
             time: 0.0,
-            mode: CopterMode::Stabilize,
+            mode: boot_mode,
+            setpoint: None,
             streams: HashMap::new(),
             next_heartbeat: 0.0,
             idle_since: None,
@@ -313,6 +476,24 @@ impl Vehicle {
             photos: 0,
             outbox: Vec::new(),
         }
+        .with_default_streams()
+    }
+
+    /// PX4 streams telemetry on a ground-station link from boot;
+    /// ArduPilot waits to be asked.
+    fn with_default_streams(mut self) -> Self {
+        if self.o.autopilot == Firmware::Px4 {
+            for (id, hz) in [(1, 1.0), (24, 1.0), (32, 10.0), (33, 5.0), (245, 1.0)] {
+                self.streams.insert(id, (1.0 / hz, 0.0));
+            }
+        }
+        self
+    }
+
+    /// Whether the firmware sends message `id` at all.
+    fn streamable(&self, id: u32) -> bool {
+        STREAMABLE.iter().any(|(s, _)| *s == id)
+            && !(self.o.autopilot == Firmware::Px4 && id == 193)
     }
 
     fn gps_fix_at(&self) -> f64 {
@@ -335,12 +516,21 @@ impl Vehicle {
         self.time >= self.o.ready_after
     }
 
-    /// Why the pre-arm checks fail, as ArduPilot words it.
+    /// Why the pre-arm checks fail, in the firmware's manner.
     fn prearm_failure(&self) -> Option<&'static str> {
+        let px4 = self.o.autopilot == Firmware::Px4;
         if !self.has_fix() {
-            Some("PreArm: GPS 1: Bad fix")
+            Some(if px4 {
+                "Preflight Fail: GPS fix too low"
+            } else {
+                "PreArm: GPS 1: Bad fix"
+            })
         } else if !self.ready() {
-            Some("PreArm: Need Position Estimate")
+            Some(if px4 {
+                "Preflight Fail: horizontal position unstable"
+            } else {
+                "PreArm: Need Position Estimate"
+            })
         } else {
             None
         }
@@ -351,7 +541,7 @@ impl Vehicle {
             time: self.time,
             position: self.kin.position(),
             armed: self.kin.is_armed(),
-            custom_mode: self.mode.custom_mode(),
+            custom_mode: self.mode.custom,
             on_ground: self.kin.on_ground(),
             photos: self.photos,
         }
@@ -361,7 +551,7 @@ impl Vehicle {
         mut self,
         mut link_rx: watch::Receiver<Option<Arc<Link>>>,
         mut silent: watch::Receiver<bool>,
-        mut pilot: tokio::sync::mpsc::UnboundedReceiver<CopterMode>,
+        mut pilot: tokio::sync::mpsc::UnboundedReceiver<u32>,
         snapshot: watch::Sender<VehicleSnapshot>,
         stop: CancellationToken,
     ) {
@@ -420,13 +610,16 @@ impl Vehicle {
                         }
                     }
                 }
-                Some(mode) = pilot.recv() => {
-                    tracing::info!(
-                        "sim-vehicle {}: the RC mode switch selects {}",
-                        self.o.system_id,
-                        mode.name()
-                    );
-                    self.set_mode(mode);
+                Some(custom) = pilot.recv() => {
+                    if Mode::role_of(self.o.autopilot, custom).is_some() {
+                        let mode = Mode { firmware: self.o.autopilot, custom };
+                        tracing::info!(
+                            "sim-vehicle {}: the RC mode switch selects {}",
+                            self.o.system_id,
+                            mode.name()
+                        );
+                        self.set_mode(mode);
+                    }
                 }
                 changed = silent.changed(), if silent_open => {
                     silent_open = changed.is_ok();
@@ -468,14 +661,16 @@ impl Vehicle {
         if let Some(at) = self.o.rc_mode_switch_at {
             if self.time >= at && !self.announced[3] {
                 self.announced[3] = true;
-                if self.mode != CopterMode::Stabilize {
+                let manual = Mode::boot(self.o.autopilot);
+                if self.mode != manual {
                     tracing::info!(
-                        "sim-vehicle {}: the RC mode switch selects STABILIZE over {}",
+                        "sim-vehicle {}: the RC mode switch selects {} over {}",
                         self.o.system_id,
+                        manual.name(),
                         self.mode.name()
                     );
                 }
-                self.set_mode(CopterMode::Stabilize);
+                self.set_mode(manual);
             }
         }
         if let Some(text) = self.prearm_failure() {
@@ -485,7 +680,7 @@ impl Vehicle {
             }
         }
 
-        let landing_mode = matches!(self.mode, CopterMode::Land | CopterMode::Rtl);
+        let landing_mode = matches!(self.mode.role(), Role::Land | Role::Rtl);
         if events.touched_down && self.kin.is_armed() && landing_mode {
             let _ = self.kin.disarm();
             self.say(MavSeverity::MAV_SEVERITY_INFO, "Land complete; disarming");
@@ -510,6 +705,28 @@ impl Vehicle {
             self.returning = false;
             self.kin.land();
         }
+        if self.mode.role() == Role::Takeoff && self.kin.is_airborne() && self.kin.arrived() {
+            self.say(MavSeverity::MAV_SEVERITY_INFO, "Takeoff complete: holding");
+            self.set_mode(Mode::for_role(self.o.autopilot, Role::Hold));
+        }
+        // PX4's offboard-loss failsafe: OFFBOARD without a fresh setpoint
+        // is left for AUTO.LOITER.
+        if self.mode.firmware == Firmware::Px4
+            && self.mode.role() == Role::Guided
+            && !self.setpoints_fresh()
+        {
+            self.say(
+                MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Failsafe: offboard setpoints lost, switching to Hold",
+            );
+            self.set_mode(Mode::for_role(self.o.autopilot, Role::Hold));
+        }
+    }
+
+    /// PX4: whether a setpoint came within the offboard loss time.
+    fn setpoints_fresh(&self) -> bool {
+        self.setpoint
+            .is_some_and(|(at, _)| self.time - at <= self.o.offboard_loss_after)
     }
 
     /// Queues the heartbeat and every stream that is due.
@@ -540,13 +757,16 @@ impl Vehicle {
         if self.kin.is_armed() {
             base |= MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED;
         }
-        if self.mode == CopterMode::Guided {
+        if self.mode.role() == Role::Guided {
             base |= MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
         }
         MavMessage::HEARTBEAT(HEARTBEAT_DATA {
-            custom_mode: self.mode.custom_mode(),
+            custom_mode: self.mode.custom,
             mavtype: MavType::MAV_TYPE_QUADROTOR,
-            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            autopilot: match self.o.autopilot {
+                Firmware::ArduPilot => MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                Firmware::Px4 => MavAutopilot::MAV_AUTOPILOT_PX4,
+            },
             base_mode: base,
             system_status: if self.kin.is_armed() {
                 MavState::MAV_STATE_ACTIVE
@@ -654,6 +874,7 @@ impl Vehicle {
                     vz: vel.down as f32,
                 })
             }
+            193 if self.o.autopilot == Firmware::Px4 => return None,
             193 => {
                 let mut flags = EkfStatusFlags::EKF_ATTITUDE | EkfStatusFlags::EKF_VELOCITY_VERT;
                 if self.has_origin() {
@@ -725,6 +946,9 @@ impl Vehicle {
             {
                 let all = r.req_stream_id == MavDataStream::MAV_DATA_STREAM_ALL;
                 for (id, group) in STREAMABLE {
+                    if !self.streamable(*id) {
+                        continue;
+                    }
                     if all || *group == r.req_stream_id {
                         if r.start_stop == 0 || r.req_message_rate == 0 {
                             self.streams.remove(id);
@@ -765,12 +989,24 @@ impl Vehicle {
                 if c.param1 as u32 & 1 == 0 {
                     return MAV_RESULT_UNSUPPORTED;
                 }
-                self.set_mode_number(c.param2 as u32)
+                let custom = match self.o.autopilot {
+                    Firmware::ArduPilot => c.param2 as u32,
+                    // PX4: main mode in param2, sub-mode in param3.
+                    Firmware::Px4 => {
+                        ((c.param2 as u32 & 0xff) << 16) | ((c.param3 as u32 & 0xff) << 24)
+                    }
+                };
+                self.set_mode_number(custom)
             }
-            MavCmd::MAV_CMD_NAV_TAKEOFF => self.takeoff(f64::from(c.param7)),
-            MavCmd::MAV_CMD_NAV_LAND => self.set_mode_number(CopterMode::Land.custom_mode()),
+            MavCmd::MAV_CMD_NAV_TAKEOFF => match self.o.autopilot {
+                Firmware::ArduPilot => self.takeoff(f64::from(c.param7)),
+                Firmware::Px4 => self.px4_takeoff(f64::from(c.param7)),
+            },
+            MavCmd::MAV_CMD_NAV_LAND => {
+                self.set_mode_number(Mode::for_role(self.o.autopilot, Role::Land).custom)
+            }
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
-                self.set_mode_number(CopterMode::Rtl.custom_mode())
+                self.set_mode_number(Mode::for_role(self.o.autopilot, Role::Rtl).custom)
             }
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
                 let id = c.param1 as u32;
@@ -778,7 +1014,7 @@ impl Vehicle {
                     // HEARTBEAT goes out at 1 Hz regardless.
                     return MAV_RESULT_ACCEPTED;
                 }
-                if !STREAMABLE.iter().any(|(s, _)| *s == id) {
+                if !self.streamable(id) {
                     return MAV_RESULT_UNSUPPORTED;
                 }
                 let us = c.param2;
@@ -808,7 +1044,7 @@ impl Vehicle {
                         self.outbox.push(m);
                         MAV_RESULT_ACCEPTED
                     }
-                    None if STREAMABLE.iter().any(|(s, _)| *s == id) => MAV_RESULT_FAILED,
+                    None if self.streamable(id) => MAV_RESULT_FAILED,
                     None => MAV_RESULT_UNSUPPORTED,
                 }
             }
@@ -845,7 +1081,7 @@ impl Vehicle {
         if let Some(text) = self.o.refuse_arming.clone() {
             return self.refuse(MavResult::MAV_RESULT_FAILED, &text);
         }
-        if matches!(self.mode, CopterMode::Land | CopterMode::Rtl) {
+        if matches!(self.mode.role(), Role::Land | Role::Rtl) {
             return self.refuse(MavResult::MAV_RESULT_FAILED, "Arm: Mode not armable");
         }
         match self.kin.arm() {
@@ -862,7 +1098,7 @@ impl Vehicle {
         if !self.kin.is_armed() {
             return self.refuse(MavResult::MAV_RESULT_FAILED, "Takeoff: motors not armed");
         }
-        if self.mode != CopterMode::Guided {
+        if self.mode != Mode::copter(CopterMode::Guided) {
             return self.refuse(
                 MavResult::MAV_RESULT_FAILED,
                 &format!("Takeoff: not in GUIDED (in {})", self.mode.name()),
@@ -881,24 +1117,28 @@ impl Vehicle {
     }
 
     fn set_mode_number(&mut self, number: u32) -> MavResult {
-        let Some(mode) = CopterMode::from_custom_mode(number) else {
+        let firmware = self.o.autopilot;
+        let mode = Mode {
+            firmware,
+            custom: number,
+        };
+        let known = match firmware {
+            Firmware::ArduPilot => CopterMode::from_custom_mode(number).is_some(),
+            Firmware::Px4 => Px4Mode::from_custom_mode(number).is_some(),
+        };
+        if !known {
             return self.refuse(
                 MavResult::MAV_RESULT_FAILED,
-                &format!("Flight mode change failed: no mode {number}"),
+                &format!("Flight mode change failed: no mode {number:#x}"),
             );
-        };
-        use CopterMode::*;
-        if !matches!(
-            mode,
-            Stabilize | AltHold | Loiter | PosHold | Brake | Guided | Land | Rtl
-        ) {
+        }
+        if Mode::role_of(firmware, number).is_none() {
             return self.refuse(
                 MavResult::MAV_RESULT_FAILED,
                 &format!("Flight mode change failed: {} not simulated", mode.name()),
             );
         }
-        let needs_position = matches!(mode, Loiter | PosHold | Brake | Guided | Rtl);
-        if needs_position && !self.has_origin() {
+        if mode.needs_position() && !self.has_origin() {
             return self.refuse(
                 MavResult::MAV_RESULT_FAILED,
                 &format!(
@@ -907,21 +1147,33 @@ impl Vehicle {
                 ),
             );
         }
+        if firmware == Firmware::Px4 && mode.role() == Role::Guided && !self.setpoints_fresh() {
+            // PX4 enters OFFBOARD only with setpoints already streaming.
+            return self.refuse(
+                MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                "Switching to OFFBOARD is not available: no offboard setpoints",
+            );
+        }
+        if firmware == Firmware::Px4 && mode.role() == Role::Takeoff && !self.kin.is_armed() {
+            return self.refuse(
+                MavResult::MAV_RESULT_TEMPORARILY_REJECTED,
+                "Takeoff denied: disarmed",
+            );
+        }
         self.set_mode(mode);
         MavResult::MAV_RESULT_ACCEPTED
     }
 
     /// Enters a mode: what the copter does on entering it.
-    fn set_mode(&mut self, mode: CopterMode) {
-        use CopterMode::*;
+    fn set_mode(&mut self, mode: Mode) {
         if mode != self.mode {
             tracing::info!("sim-vehicle {}: mode {}", self.o.system_id, mode.name());
         }
         self.mode = mode;
         self.returning = false;
-        match mode {
-            Land => self.kin.land(),
-            Rtl => {
+        match mode.role() {
+            Role::Land => self.kin.land(),
+            Role::Rtl => {
                 if self.kin.is_airborne() {
                     let z = self.kin.position().z;
                     if self
@@ -935,6 +1187,18 @@ impl Vehicle {
                     }
                 }
             }
+            Role::Takeoff => {
+                if !self.kin.is_airborne() {
+                    let _ = self.px4_climb(PX4_TAKEOFF_HEIGHT);
+                }
+            }
+            Role::Guided if mode.firmware == Firmware::Px4 => {
+                // OFFBOARD flies the setpoint that is streaming.
+                self.kin.hold();
+                if let Some((_, ned)) = self.setpoint {
+                    self.offboard_target(ned);
+                }
+            }
             // Every other mode holds where it is: GUIDED until given a
             // target, the manual ones as a pilot would with sticks centred.
             _ => {
@@ -945,10 +1209,64 @@ impl Vehicle {
         }
     }
 
-    fn position_target(&mut self, t: &SET_POSITION_TARGET_LOCAL_NED_DATA) {
-        if self.mode != CopterMode::Guided || !self.kin.is_airborne() {
+    /// PX4 `MAV_CMD_NAV_TAKEOFF`: param7 is an altitude above sea level
+    /// (NaN: the default height); it climbs in AUTO.TAKEOFF.
+    fn px4_takeoff(&mut self, altitude: f64) -> MavResult {
+        if !self.kin.is_armed() {
+            return self.refuse(MavResult::MAV_RESULT_DENIED, "Takeoff denied: disarmed");
+        }
+        if self.kin.is_airborne() {
+            return self.refuse(
+                MavResult::MAV_RESULT_DENIED,
+                "Takeoff denied: already flying",
+            );
+        }
+        let height = if altitude.is_finite() {
+            altitude - self.o.home.alt
+        } else {
+            PX4_TAKEOFF_HEIGHT
+        };
+        match self.px4_climb(height) {
+            Ok(()) => {
+                self.mode = Mode::for_role(Firmware::Px4, Role::Takeoff);
+                MavResult::MAV_RESULT_ACCEPTED
+            }
+            Err(text) => self.refuse(MavResult::MAV_RESULT_DENIED, &text),
+        }
+    }
+
+    fn px4_climb(&mut self, height: f64) -> Result<(), String> {
+        self.kin
+            .takeoff(height)
+            .map_err(|e| format!("Takeoff denied: {e}"))?;
+        self.idle_since = None;
+        Ok(())
+    }
+
+    /// PX4 in OFFBOARD flies to a setpoint (EKF frame); on the ground, a
+    /// setpoint well above it is a take-off.
+    fn offboard_target(&mut self, ned: Ned) {
+        let target = (ned + self.o.ekf_origin_offset).to_mission();
+        if !self.kin.is_armed() {
             return;
         }
+        if self.kin.is_airborne() {
+            if self.kin.mode() == FlightMode::Takeoff && !self.kin.arrived() {
+                // Still climbing from the ground: let the climb finish
+                // first, as PX4's take-off ramp does.
+                return;
+            }
+            if let Err(e) = self.kin.go_to(target, FlightMode::Guided) {
+                tracing::info!("sim-vehicle {}: ignored a setpoint: {e}", self.o.system_id);
+            }
+        } else if target.z > self.kin.position().z + 0.5 {
+            if let Err(e) = self.px4_climb(target.z) {
+                tracing::info!("sim-vehicle {}: {e}", self.o.system_id);
+            }
+        }
+    }
+
+    fn position_target(&mut self, t: &SET_POSITION_TARGET_LOCAL_NED_DATA) {
         if t.coordinate_frame != MavFrame::MAV_FRAME_LOCAL_NED {
             return;
         }
@@ -959,8 +1277,19 @@ impl Vehicle {
             // Velocity and acceleration targets are not simulated.
             return;
         }
-        let ned =
-            Ned::new(f64::from(t.x), f64::from(t.y), f64::from(t.z)) + self.o.ekf_origin_offset;
+        let setpoint = Ned::new(f64::from(t.x), f64::from(t.y), f64::from(t.z));
+        if self.o.autopilot == Firmware::Px4 {
+            // Every setpoint keeps the offboard stream alive, in any mode.
+            self.setpoint = Some((self.time, setpoint));
+            if self.mode.role() == Role::Guided {
+                self.offboard_target(setpoint);
+            }
+            return;
+        }
+        if self.mode.role() != Role::Guided || !self.kin.is_airborne() {
+            return;
+        }
+        let ned = setpoint + self.o.ekf_origin_offset;
         let target = ned.to_mission();
         if let Err(e) = self.kin.go_to(target, FlightMode::Guided) {
             tracing::info!(
