@@ -20,6 +20,9 @@ enum Command {
     Build(cmd::build::Args),
     Check(cmd::check::Args),
     Run(cmd::run::Args),
+    Agent(cmd::agent::Args),
+    Deploy(cmd::deploy::Args),
+    Keygen(cmd::keygen::Args),
     SimVehicle(cmd::sim_vehicle::Args),
 }
 
@@ -29,6 +32,9 @@ fn main() -> ExitCode {
         Command::Build(args) => cmd::build::run(args),
         Command::Check(args) => cmd::check::run(args),
         Command::Run(args) => cmd::run::run(args),
+        Command::Agent(args) => cmd::agent::run(args),
+        Command::Deploy(args) => cmd::deploy::run(args),
+        Command::Keygen(args) => cmd::keygen::run(args),
         Command::SimVehicle(args) => cmd::sim_vehicle::run(args),
     }
 }

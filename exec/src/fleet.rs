@@ -12,6 +12,12 @@
 //! [gcs]
 //! listen = ["tcp/127.0.0.1:7447"]  # zenoh endpoints of the ground station
 //!
+//! [keys]
+//! gcs = "gcs.pub"                  # agents run only what this key signed
+//!
+//! [rollout]                        # where `eamos deploy` meets the agents
+//! listen = ["tcp/127.0.0.1:7400"]  # the ground station listens there
+//!
 //! [drones.D1]
 //! adapter = "sim"                  # the default
 //! home = { x = 0.0, y = 0.0, z = 0.0 }
@@ -57,6 +63,28 @@ pub struct Fleet {
     pub gcs: PeerNet,
     #[serde(default)]
     pub drones: BTreeMap<String, DroneEntry>,
+    /// Who signs what agents run.
+    #[serde(default)]
+    pub keys: KeySettings,
+    /// Where `eamos deploy` and the agents meet before a mission exists
+    /// (see [`crate::deploy`]).
+    #[serde(default)]
+    pub rollout: PeerNet,
+    /// The digest of the file in canonical form, part of the mission
+    /// identity (see [`crate::identity`]); empty when there is no file.
+    #[serde(skip)]
+    pub digest: String,
+}
+
+/// The ground station's signing key, as agents know it.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct KeySettings {
+    /// The ground station's public key (PEM, relative to the fleet file;
+    /// `eamos keygen` writes one). When given, an agent runs only slices
+    /// and obeys only commands that this key signed.
+    #[serde(default)]
+    pub gcs: Option<std::path::PathBuf>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -146,7 +174,7 @@ impl Fleet {
         mission: &str,
         drones: &[String],
     ) -> Result<Fleet, FleetError> {
-        let fleet: Fleet = toml::from_str(text).map_err(|e| FleetError::Parse {
+        let mut fleet: Fleet = toml::from_str(text).map_err(|e| FleetError::Parse {
             path: name.to_string(),
             error: e.to_string().trim_end().to_string(),
         })?;
@@ -200,6 +228,7 @@ impl Fleet {
                 error: format!("[sim]: {e}"),
             })?;
         }
+        fleet.digest = crate::identity::fleet_digest(text);
         Ok(fleet)
     }
 

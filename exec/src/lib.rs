@@ -7,12 +7,17 @@
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`log`]: the per-drone mission, uniform and adapter logs.
 //! - [`fleet`]: the fleet file (adapters, homes, endpoints).
+//! - [`identity`]: the mission identity (mission and fleet) and slice digests.
+//! - [`deploy`]: the roll-out: agents waiting for their signed slice, and the
+//!   ground station sending each drone its part.
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
 
+pub mod deploy;
 pub mod executor;
 pub mod fleet;
 pub mod guard;
+pub mod identity;
 pub mod log;
 pub mod runner;
 pub mod svg;

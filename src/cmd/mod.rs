@@ -1,7 +1,10 @@
 //! One module per subcommand. Each returns the process exit status:
 //! 0 success, 1 findings (where a command has findings), 2 bad input.
 
+pub mod agent;
 pub mod build;
 pub mod check;
+pub mod deploy;
+pub mod keygen;
 pub mod run;
 pub mod sim_vehicle;

@@ -113,7 +113,7 @@ pub fn run(args: Args) -> ExitCode {
         }
     };
     let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let slices = match eamos_slicer::slice(&net) {
+    let mut slices = match eamos_slicer::slice(&net) {
         Ok(s) => s,
         Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
     };
@@ -124,6 +124,8 @@ pub fn run(args: Args) -> ExitCode {
         },
         None => Fleet::default(),
     };
+    // Peers built from another mission or fleet file refuse this one.
+    eamos_exec::identity::bind(&mut slices, &fleet);
     let peer = match (&args.drone, args.gcs) {
         (Some(d), _) => {
             if !net.drones.contains(d) {

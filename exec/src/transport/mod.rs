@@ -114,6 +114,13 @@ pub enum TransportError {
         missing: Vec<PeerId>,
         waited: Duration,
     },
+    #[error("peer {peer} runs another version of mission {mission} (version {theirs}, this peer {ours}): peers of two versions refuse each other; build every peer from the same mission and fleet file")]
+    OtherVersion {
+        peer: PeerId,
+        mission: String,
+        theirs: String,
+        ours: String,
+    },
 }
 
 /// Moves frames between peers, best effort: no retransmission, no

@@ -171,6 +171,7 @@ pub async fn open(
         .declare_token(key(mission, me, "alive"))
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
+    let version = announce_version(&session, mission, me, alive.clone()).await?;
 
     let link = ZenohLink {
         me: me.to_string(),
@@ -181,6 +182,7 @@ pub async fn open(
         _subscribers: subscribers,
         _alive_subscriber: alive_sub,
         _token: token,
+        _version: version,
     };
     Ok(Endpoint {
         link: Arc::new(link),
@@ -193,6 +195,8 @@ pub async fn open(
 struct Alive {
     peers: Mutex<HashSet<PeerId>>,
     changed: Notify,
+    /// Peers seen running another version of this mission, with theirs.
+    foreign: Mutex<HashMap<PeerId, String>>,
 }
 
 struct ZenohLink {
@@ -205,6 +209,7 @@ struct ZenohLink {
     _subscribers: Vec<Subscriber<()>>,
     _alive_subscriber: Subscriber<()>,
     _token: LivelinessToken,
+    _version: Option<(LivelinessToken, Subscriber<()>)>,
 }
 
 impl ZenohLink {
@@ -266,6 +271,9 @@ impl Link for ZenohLink {
             if missing.is_empty() {
                 return Ok(());
             }
+            if let Some(e) = self.alive.other_version(&self.mission, &missing) {
+                return Err(e);
+            }
             // Liveliness changes wake us; the timer only bounds the wait.
             let tick = tokio::time::sleep(Duration::from_millis(200));
             tokio::select! {
@@ -279,6 +287,137 @@ impl Link for ZenohLink {
                 });
             }
         }
+    }
+}
+
+/// Peers of one mission announce its version with a liveliness token
+/// `eamos/<mission name>/<peer>/version/<version>` beside the identity-scoped
+/// keys, so that a peer of another version of the same mission is told
+/// apart from a peer that is simply not up: the two never exchange a token
+/// (their keys differ), and each says why. `None` for an identity without
+/// a version.
+async fn announce_version(
+    session: &Session,
+    mission: &str,
+    me: &str,
+    alive: Arc<Alive>,
+) -> Result<Option<(LivelinessToken, Subscriber<()>)>, TransportError> {
+    let Some((name, version)) = crate::identity::split(mission) else {
+        return Ok(None);
+    };
+    let ours = version.to_string();
+    let prefix = format!("eamos/{name}/");
+    let mission_name = name.to_string();
+    let sub = session
+        .liveliness()
+        .declare_subscriber(format!("eamos/{name}/*/version/*"))
+        .history(true)
+        .callback(move |sample| {
+            let k = sample.key_expr().as_str();
+            let Some((peer, theirs)) = k
+                .strip_prefix(&prefix)
+                .and_then(|r| r.split_once("/version/"))
+            else {
+                return;
+            };
+            if theirs == ours {
+                return;
+            }
+            let mut foreign = alive.foreign.lock().expect("alive lock");
+            match sample.kind() {
+                SampleKind::Put => {
+                    if foreign.insert(peer.to_string(), theirs.to_string()).is_none() {
+                        tracing::error!(
+                            "peer {peer} runs version {theirs} of mission {mission_name}, this peer version {ours}: they refuse each other"
+                        );
+                    }
+                }
+                SampleKind::Delete => {
+                    foreign.remove(peer);
+                }
+            }
+            alive.changed.notify_waiters();
+        })
+        .await
+        .map_err(|e| TransportError::Open(e.to_string()))?;
+    let token = session
+        .liveliness()
+        .declare_token(format!("eamos/{name}/{me}/version/{version}"))
+        .await
+        .map_err(|e| TransportError::Open(e.to_string()))?;
+    Ok(Some((token, sub)))
+}
+
+impl Alive {
+    /// The first of `missing` that runs another version of `mission`.
+    fn other_version(&self, mission: &str, missing: &[PeerId]) -> Option<TransportError> {
+        let foreign = self.foreign.lock().expect("alive lock");
+        let (name, ours) = crate::identity::split(mission)?;
+        missing.iter().find_map(|p| {
+            foreign.get(p).map(|theirs| TransportError::OtherVersion {
+                peer: p.clone(),
+                mission: name.to_string(),
+                theirs: theirs.clone(),
+                ours: ours.to_string(),
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod version_tests {
+    use super::*;
+
+    fn free_port() -> u16 {
+        std::net::TcpListener::bind("127.0.0.1:0")
+            .unwrap()
+            .local_addr()
+            .unwrap()
+            .port()
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn peers_of_two_versions_of_one_mission_refuse_each_other_and_say_why() {
+        let (pa, pb) = (free_port(), free_port());
+        let options = |listen: u16, connect: u16| ZenohOptions {
+            listen: vec![format!("tcp/127.0.0.1:{listen}")],
+            connect: vec![format!("tcp/127.0.0.1:{connect}")],
+            ..ZenohOptions::default()
+        };
+        let gcs = open("Survey-0a1b2c", "GCS", &[], &options(pa, pb))
+            .await
+            .unwrap();
+        let mut d1 = open("Survey-9f8e7d", "D1", &[], &options(pb, pa))
+            .await
+            .unwrap();
+        let e = gcs
+            .link
+            .wait_for_peers(&["D1".into()], Duration::from_secs(20))
+            .await
+            .unwrap_err();
+        let msg = e.to_string();
+        assert!(matches!(e, TransportError::OtherVersion { .. }), "{msg}");
+        assert!(
+            msg.contains("D1") && msg.contains("9f8e7d") && msg.contains("0a1b2c"),
+            "{msg}"
+        );
+        let e = d1
+            .link
+            .wait_for_peers(&["GCS".into()], Duration::from_secs(20))
+            .await
+            .unwrap_err();
+        assert!(e.to_string().contains("0a1b2c"), "{e}");
+        // Nor does a token cross.
+        let token = Frame::Token(crate::transport::BridgeMessage {
+            mission: "Survey-0a1b2c".into(),
+            from: "GCS".into(),
+            bridge: "b0".into(),
+            colour: vec![],
+            seq: 1,
+        });
+        gcs.link.send("D1", &token).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert!(d1.frames.try_recv().is_err());
     }
 }
 

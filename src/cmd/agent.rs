@@ -1,0 +1,116 @@
+//! `eamos agent --drone D2`: the agent on a drone's companion computer. It
+//! joins the fleet's roll-out endpoints, waits for its slice from `eamos
+//! deploy`, checks it (signed by the ground station key the fleet file
+//! names, built with this very fleet file, meant for this drone), keeps it,
+//! and flies it when the signed start command comes, as `eamos run --drone`
+//! would. Then it waits for the next version of the mission, unless
+//! `--once`. Exit status: 0 stopped (or, with `--once`, the mission
+//! completed), 1 the mission did not complete, 2 bad input.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use tokio::sync::mpsc;
+
+use eamos_exec::deploy::{self, AgentConfig, AgentEvent, CancellationToken};
+use eamos_exec::fleet::Fleet;
+
+/// Wait on a drone's companion computer for its slice, then fly it.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The drone this computer flies.
+    #[arg(long, value_name = "DRONE")]
+    pub drone: String,
+    /// The fleet file: the same file the ground station deploys with.
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// Where each mission's logs go (`DIR/<mission>`).
+    #[arg(long, value_name = "DIR", default_value = "eamos-agent")]
+    pub out: PathBuf,
+    /// Exit after one mission.
+    #[arg(long)]
+    pub once: bool,
+}
+
+fn bad_input(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let (text, name) = match &args.fleet {
+        Some(p) => match std::fs::read_to_string(p) {
+            Ok(t) => (t, p.display().to_string()),
+            Err(e) => return bad_input(&format!("cannot read fleet file {}: {e}", p.display())),
+        },
+        None => (String::new(), "(no fleet file)".to_string()),
+    };
+    let fleet = match deploy::agent_fleet(&text, &name) {
+        Ok(f) if args.fleet.is_some() => f,
+        Ok(_) => Fleet::default(),
+        Err(e) => return bad_input(&e.to_string()),
+    };
+    let trusted = match deploy::trusted_key(&fleet, args.fleet.as_deref()) {
+        Ok(k) => k,
+        Err(e) => return bad_input(&format!("{name}: {e}")),
+    };
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("error")),
+        )
+        .try_init();
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    let drone = args.drone.clone();
+    match &trusted {
+        Some(k) => println!("{drone}: trusts the ground station key {}", k.fingerprint()),
+        None => {
+            println!("{drone}: no ground station key in the fleet file: accepting unsigned slices")
+        }
+    }
+    let config = AgentConfig {
+        drone: drone.clone(),
+        fleet_text: text,
+        fleet_name: name,
+        fleet,
+        trusted,
+        profiles: eamos_mid::profiles::builtin(),
+        out: args.out.clone(),
+        once: args.once,
+    };
+    let result = runtime.block_on(async {
+        let stop = CancellationToken::new();
+        let on_signal = stop.clone();
+        tokio::spawn(async move {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                on_signal.cancel();
+            }
+        });
+        let (tx, mut rx) = mpsc::unbounded_channel();
+        let printer = tokio::spawn(async move {
+            let mut completed = false;
+            while let Some(e) = rx.recv().await {
+                if let AgentEvent::Ended { outcome, .. } = &e {
+                    completed = outcome == "completed";
+                }
+                println!("{drone}: {e}");
+            }
+            completed
+        });
+        let r = deploy::run_agent(config, tx, stop).await;
+        let completed = printer.await.unwrap_or(false);
+        r.map(|()| completed)
+    });
+    match result {
+        Err(e) => bad_input(&e.to_string()),
+        Ok(completed) if args.once && !completed => ExitCode::from(1),
+        Ok(_) => ExitCode::SUCCESS,
+    }
+}

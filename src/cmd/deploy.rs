@@ -1,0 +1,232 @@
+//! `eamos deploy MISSION --fleet FLEET`: the ground station's roll-out.
+//! Compiles and slices the mission, signs each drone's slice with the
+//! ground station key, sends it to the drone's agent (`eamos agent`) and
+//! waits for the agent to say it verified and kept it, or why it refused.
+//! A drone whose agent already holds the very same slice is not sent it
+//! again: after an edit only the drones whose part changed get a new one.
+//! Then it sends the signed start and flies the ground station's part,
+//! as `eamos run --gcs` does.
+//!
+//! Prints one line per drone: `sent`, `unchanged` or `refused: <reason>`.
+//! Exit status: 0 the mission completed (or, with `--no-start`, every drone
+//! holds its slice), 1 a drone refused or the mission did not complete,
+//! 2 bad input.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
+use eamos_exec::fleet::Fleet;
+use eamos_exec::runner::RunOptions;
+use eamos_exec::Outcome;
+use eamos_lang::{SourceFile, Style};
+use eamos_seal::GroundKey;
+
+/// Send each drone's agent its signed slice, then start the mission.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission file (Go syntax).
+    pub mission: PathBuf,
+    /// The fleet file, the same as the agents'.
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// The ground station's secret key [default: the fleet's `[keys] gcs`
+    /// public key with the extension `.key`].
+    #[arg(long, value_name = "KEY")]
+    pub key: Option<PathBuf>,
+    /// How long to wait for every drone's agent to show up.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    pub wait: f64,
+    /// Only deliver the slices; do not start the mission.
+    #[arg(long)]
+    pub no_start: bool,
+    /// Simulated seconds per real second, on every drone.
+    #[arg(long, value_name = "N", default_value_t = 20.0)]
+    pub speed: f64,
+    /// Mission time limit in seconds.
+    #[arg(long, value_name = "SECONDS")]
+    pub max_duration: Option<f64>,
+    /// Seed of the simulators' random processes.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Where the ground station's logs go [default: eamos-run/<mission>].
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// How long the ground station waits for the started drones.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub startup_timeout: f64,
+}
+
+fn bad_input(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}
+
+/// The secret key: `--key`, or the fleet's public key's sibling. A fleet
+/// that names a public key needs the matching secret key, or every agent
+/// would refuse what this deploy sends.
+fn signing_key(args: &Args, fleet: &Fleet) -> Result<Option<GroundKey>, String> {
+    let fleet_path = args.fleet.as_deref();
+    let path = match (&args.key, &fleet.keys.gcs) {
+        (Some(k), _) => k.clone(),
+        (None, Some(public)) => deploy::resolve(fleet_path, public).with_extension("key"),
+        (None, None) => return Ok(None),
+    };
+    let key = GroundKey::load(&path).map_err(|e| e.to_string())?;
+    if let Some(trusted) = deploy::trusted_key(fleet, fleet_path)? {
+        if trusted != key.public() {
+            return Err(format!(
+                "{} is the secret key of {}, but the fleet file trusts {}: the agents would refuse every slice",
+                path.display(),
+                key.public().fingerprint(),
+                trusted.fingerprint()
+            ));
+        }
+    }
+    Ok(Some(key))
+}
+
+pub fn run(args: Args) -> ExitCode {
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        return bad_input(&format!("--speed must be above zero, not {}", args.speed));
+    }
+    if !(args.wait.is_finite() && args.wait >= 0.0) {
+        return bad_input("--wait must be zero or more seconds");
+    }
+    if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
+        return bad_input("--startup-timeout must be zero or more seconds");
+    }
+    if let Some(d) = args.max_duration {
+        if !(d.is_finite() && d > 0.0) {
+            return bad_input(&format!("--max-duration must be above zero, not {d}"));
+        }
+    }
+    let name = args.mission.display().to_string();
+    let text = match std::fs::read_to_string(&args.mission) {
+        Ok(t) => t,
+        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
+    };
+    let source = SourceFile::new(name.clone(), text);
+    let profiles = eamos_mid::profiles::builtin();
+    let compiled = match eamos_lang::compile(&source, &profiles) {
+        Ok(c) => c,
+        Err(diags) => {
+            let style = Style {
+                width: 100,
+                colour: std::io::stderr().is_terminal(),
+            };
+            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
+            return ExitCode::from(2);
+        }
+    };
+    let net = eamos_petri::compile(&compiled.mission, &profiles);
+    let mut slices = match eamos_slicer::slice(&net) {
+        Ok(s) => s,
+        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
+    };
+    let fleet = match &args.fleet {
+        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
+            Ok(f) => f,
+            Err(e) => return bad_input(&e.to_string()),
+        },
+        None => Fleet::default(),
+    };
+    eamos_exec::identity::bind(&mut slices, &fleet);
+    let key = match signing_key(&args, &fleet) {
+        Ok(k) => k,
+        Err(e) => return bad_input(&e),
+    };
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("eamos-run").join(&slices.mission));
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    let run = RunOptions {
+        speed: args.speed,
+        max_duration: args.max_duration,
+        seed: args.seed,
+        out,
+        source: Some(Arc::new(source)),
+        startup_timeout: Duration::from_secs_f64(args.startup_timeout),
+        ..RunOptions::default()
+    };
+    println!(
+        "deploying {} ({})",
+        slices.mission_id,
+        match &key {
+            Some(k) => format!("signed by {}", k.public().fingerprint()),
+            None => "unsigned: no ground station key".to_string(),
+        }
+    );
+    runtime.block_on(async {
+        let rollout = match RollOut::open(&fleet, key).await {
+            Ok(r) => r,
+            Err(e) => return bad_input(&e.to_string()),
+        };
+        let drones = slices.distributed.drones.clone();
+        let missing = rollout
+            .wait_for_agents(&drones, Duration::from_secs_f64(args.wait))
+            .await;
+        if !missing.is_empty() {
+            for d in &missing {
+                println!("{d}: refused: no agent showed up within {} s", args.wait);
+            }
+            eprintln!(
+                "error: mission not started: no agent for {}",
+                missing.join(", ")
+            );
+            return ExitCode::from(1);
+        }
+        let delivered = rollout.deliver(&slices).await;
+        for (d, what) in &delivered {
+            println!("{d}: {what}");
+        }
+        let refused = delivered
+            .values()
+            .filter(|d| matches!(d, Delivery::Refused { .. }))
+            .count();
+        if refused > 0 {
+            eprintln!("error: mission not started: {refused} drone(s) refused their slice");
+            return ExitCode::from(1);
+        }
+        if args.no_start {
+            return ExitCode::SUCCESS;
+        }
+        let answers = rollout.start(&slices, &run).await;
+        let mut refused = 0;
+        for (d, a) in &answers {
+            if let Answer::Refused { reason } = a {
+                println!("{d}: refused the start: {reason}");
+                refused += 1;
+            }
+        }
+        rollout.close().await;
+        if refused > 0 {
+            eprintln!("error: {refused} drone(s) refused to start");
+            return ExitCode::from(1);
+        }
+        println!("started {}", slices.mission_id);
+        match deploy::fly_ground_station(&slices, &fleet, &profiles, &run).await {
+            Err(e) => bad_input(&e.to_string()),
+            Ok(report) => {
+                let outcome = report.reports.first().map(|r| r.outcome.clone());
+                println!("mission {}: {:?}", slices.mission, outcome);
+                if matches!(outcome, Some(Outcome::Completed)) {
+                    println!("mission {} completed", slices.mission);
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::from(1)
+                }
+            }
+        }
+    })
+}
