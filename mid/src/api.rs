@@ -444,6 +444,42 @@ pub trait Adapter: Send + Sync {
     /// flying on for nobody; callers should still prefer the token, which
     /// also reports the outcome.
     async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError>;
+
+    /// The point relative moves (`FlyByX`, `ReturnHome`'s height) start
+    /// from now, in the local frame. An agent that journals a motion records
+    /// the absolute target computed from it, so that a motion interrupted by
+    /// a crash of the agent is resumed towards that target instead of being
+    /// applied again as a new relative move. Adapters whose vehicle holds a
+    /// point other than where it is (the simulator, an autopilot in
+    /// position hold) say so here.
+    fn motion_reference(&self) -> Result<Vec3, ActionError> {
+        Ok(self.telemetry().borrow().position)
+    }
+
+    /// The absolute target `call` flies to if it starts now (see
+    /// [`MultirotorAction::target_from`]); `None` for actions that are not
+    /// a flight to a point.
+    fn motion_target(&self, call: &ActionCall) -> Option<Vec3> {
+        let action = MultirotorAction::parse(call).ok()?;
+        action.target_from(self.motion_reference().ok()?)
+    }
+
+    /// Flies to an absolute target on behalf of `call` (which names the
+    /// action in logs and errors), ending like `call` would: within the
+    /// arrival tolerance of `target`, holding there. This is how a motion
+    /// interrupted by a crash of the agent is resumed. Adapters that cannot
+    /// fly to a point refuse it as unsupported.
+    async fn fly_to_target(
+        &self,
+        call: &ActionCall,
+        target: Vec3,
+        cancel: CancellationToken,
+    ) -> Result<(), ActionError> {
+        let _ = (target, cancel);
+        Err(ActionError::Unsupported {
+            action: call.name.clone(),
+        })
+    }
 }
 
 /// An axis of the local frame.
@@ -587,6 +623,21 @@ impl MultirotorAction {
         )
     }
 
+    /// The absolute target of this action when it starts from `start` (the
+    /// adapter's [`Adapter::motion_reference`]): where `FlyByX(d)` from
+    /// there ends, the point `Takeoff(h)` climbs to, `ReturnHome`'s point
+    /// above home. `None` for actions that do not fly to a point (`Land`
+    /// ends wherever the ground is, `Hover` holds for a time).
+    pub fn target_from(self, start: Vec3) -> Option<Vec3> {
+        match self {
+            MultirotorAction::Takeoff { height } => Some(Vec3::new(start.x, start.y, height)),
+            MultirotorAction::FlyBy { axis, distance } => Some(start + axis.unit() * distance),
+            MultirotorAction::FlyTo { target } => Some(target),
+            MultirotorAction::ReturnHome => Some(Vec3::new(0.0, 0.0, start.z)),
+            _ => None,
+        }
+    }
+
     /// The mission's name of the action.
     pub fn name(self) -> &'static str {
         match self {
@@ -688,6 +739,28 @@ mod tests {
                 .name(),
             "FlyByY"
         );
+    }
+
+    #[test]
+    fn the_target_of_a_relative_move_is_its_start_plus_the_move() {
+        let start = Vec3::new(1.0, 2.0, 5.0);
+        let target = |name: &str, args: &[f64]| {
+            MultirotorAction::parse(&ActionCall::new(name, args.to_vec()))
+                .unwrap()
+                .target_from(start)
+        };
+        assert_eq!(target("FlyByX", &[5.0]), Some(Vec3::new(6.0, 2.0, 5.0)));
+        assert_eq!(target("FlyByY", &[-1.0]), Some(Vec3::new(1.0, 1.0, 5.0)));
+        assert_eq!(target("FlyByZ", &[0.5]), Some(Vec3::new(1.0, 2.0, 5.5)));
+        assert_eq!(
+            target("FlyTo", &[0.0, 0.0, 3.0]),
+            Some(Vec3::new(0.0, 0.0, 3.0))
+        );
+        assert_eq!(target("Takeoff", &[1.5]), Some(Vec3::new(1.0, 2.0, 1.5)));
+        assert_eq!(target("ReturnHome", &[]), Some(Vec3::new(0.0, 0.0, 5.0)));
+        assert_eq!(target("Land", &[]), None);
+        assert_eq!(target("Hover", &[3.0]), None);
+        assert_eq!(target("Arm", &[]), None);
     }
 
     #[test]

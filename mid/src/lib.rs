@@ -27,5 +27,5 @@ pub use api::{
 };
 pub use clock::MissionClock;
 pub use log::{LogRecord, LogSink, MemorySink, NullSink, SharedSink};
-pub use sim::{SimConfig, SimDrone, SimDroneSpec, SimError, SimFleet};
+pub use sim::{Airframe, SimConfig, SimDrone, SimDroneSpec, SimError, SimFleet};
 pub use uniform::Uniform;

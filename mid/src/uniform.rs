@@ -14,7 +14,7 @@ use tokio::sync::watch;
 
 use crate::api::{
     evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken,
-    PropertyArg, PropertyError, Telemetry, Value,
+    PropertyArg, PropertyError, Telemetry, Value, Vec3,
 };
 use crate::clock::MissionClock;
 use crate::log::{CallPhase, LogRecord, SharedSink, UniformRecord};
@@ -157,6 +157,40 @@ impl Adapter for Uniform {
         self.log_call(call_id, call, CallPhase::Started, None);
         let result = match self.check(call) {
             Ok(()) => self.adapter.run(call, cancel).await,
+            Err(e) => Err(e),
+        };
+        let duration = (clock.now() - start).max(0.0);
+        self.log_call(
+            call_id,
+            call,
+            CallPhase::Finished,
+            Some((&result, duration)),
+        );
+        result
+    }
+
+    fn motion_reference(&self) -> Result<Vec3, ActionError> {
+        self.adapter.motion_reference()
+    }
+
+    fn motion_target(&self, call: &ActionCall) -> Option<Vec3> {
+        self.adapter.motion_target(call)
+    }
+
+    /// Checked and logged like [`Adapter::run`]: a resumed motion is one
+    /// more call of its action in the uniform log.
+    async fn fly_to_target(
+        &self,
+        call: &ActionCall,
+        target: Vec3,
+        cancel: CancellationToken,
+    ) -> Result<(), ActionError> {
+        let call_id = self.next_call.fetch_add(1, Ordering::Relaxed);
+        let clock = self.adapter.clock();
+        let start = clock.now();
+        self.log_call(call_id, call, CallPhase::Started, None);
+        let result = match self.check(call) {
+            Ok(()) => self.adapter.fly_to_target(call, target, cancel).await,
             Err(e) => Err(e),
         };
         let duration = (clock.now() - start).max(0.0);

@@ -348,6 +348,16 @@ impl Multirotor {
         }
     }
 
+    /// Puts the drone back in a recorded state, at rest: the airframe of an
+    /// agent that crashed and restarted is still where it was, armed if it
+    /// was, holding there if it is in the air (an airborne drone is always
+    /// armed).
+    pub fn restore(&mut self, position: Vec3, armed: bool, battery: f64) {
+        self.set_battery(battery);
+        self.place(position);
+        self.armed = armed || !self.on_ground;
+    }
+
     /// Overrides the reported mode (a pilot takes over, a vehicle switches
     /// to a mode the model has no guidance for).
     pub fn set_mode(&mut self, mode: FlightMode) {

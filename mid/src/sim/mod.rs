@@ -204,14 +204,26 @@ pub struct SimFleet {
 impl SimFleet {
     /// Starts the stepping task. Must be called inside a tokio runtime.
     pub fn start(config: SimConfig) -> Result<Self, SimError> {
+        Self::start_at(config, 0.0)
+    }
+
+    /// Starts the stepping task with the clock at mission time `time`: a
+    /// restarted agent's simulation goes on from the time its airframe was
+    /// recorded, so that mission times in its logs keep increasing.
+    pub fn start_at(config: SimConfig, time: f64) -> Result<Self, SimError> {
         config.validate()?;
+        let steps = if time.is_finite() && time > 0.0 {
+            (time / config.step).round() as u64
+        } else {
+            0
+        };
         let handle = tokio::runtime::Handle::try_current().map_err(|_| SimError::NoRuntime)?;
-        let (time_tx, time_rx) = watch::channel(0.0);
+        let (time_tx, time_rx) = watch::channel(steps as f64 * config.step);
         let world = Arc::new(World {
             clock: MissionClock::simulated(time_rx),
             time_tx,
             state: Mutex::new(WorldState {
-                steps: 0,
+                steps,
                 drones: Vec::new(),
             }),
             config,
@@ -557,6 +569,21 @@ impl Slot {
     }
 }
 
+/// What survives of a simulated drone when the agent flying it crashes:
+/// the airframe. A real autopilot keeps its state through a crash of the
+/// companion computer; a simulated one lives in the agent's process, so the
+/// agent records it now and then, and a restarted agent puts its simulated
+/// drone back where it was recorded instead of on its home.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Airframe {
+    /// Mission time of the record.
+    pub time: f64,
+    /// Local frame, metres from home.
+    pub position: Vec3,
+    pub armed: bool,
+    pub battery: f64,
+}
+
 /// One simulated drone: the [`Adapter`] the executor drives.
 #[derive(Clone)]
 pub struct SimDrone {
@@ -593,13 +620,52 @@ impl SimDrone {
         self.with_slot(|slot, _| slot.model.clone())
     }
 
+    /// The airframe's state now, to record.
+    pub fn airframe(&self) -> Airframe {
+        self.with_slot(|slot, now| Airframe {
+            time: now,
+            position: slot.model.position(),
+            armed: slot.model.is_armed(),
+            battery: slot.model.battery(),
+        })
+    }
+
+    /// Puts the drone back where a recorded airframe was, at rest: holding
+    /// in the air there, or on the ground. A recorded state that is not
+    /// finite is refused and the drone stays where it is.
+    pub fn restore(&self, airframe: &Airframe) -> Result<(), SimError> {
+        if !(airframe.position.is_finite() && airframe.battery.is_finite()) {
+            return Err(SimError::BadVehicle {
+                drone: self.name.clone(),
+                reason: format!("the recorded position {} is not finite", airframe.position),
+            });
+        }
+        self.with_slot(|slot, now| {
+            slot.motion = None;
+            slot.model
+                .restore(airframe.position, airframe.armed, airframe.battery);
+            slot.state(
+                now,
+                format!(
+                    "restored from the airframe recorded at {:.2} s: {}{}",
+                    airframe.time,
+                    airframe.position,
+                    if airframe.armed { ", armed" } else { "" }
+                ),
+            );
+            slot.dirty = true;
+            slot.publish(now);
+        });
+        Ok(())
+    }
+
     fn with_slot<R>(&self, f: impl FnOnce(&mut Slot, f64) -> R) -> R {
         let mut state = self.world.lock();
         let now = state.now(self.world.config.step);
         f(&mut state.drones[self.index], now)
     }
 
-    fn start(&self, call: &ActionCall, action: MultirotorAction) -> Start {
+    fn start(&self, call: &ActionCall, action: MultirotorAction, target: Option<Vec3>) -> Start {
         let durations = &self.world.config.durations;
         self.with_slot(|slot, now| {
             let name = action.name();
@@ -672,79 +738,91 @@ impl SimDrone {
                 }
             }
 
-            let model = &mut slot.model;
-            let until = match action {
-                MultirotorAction::Arm => {
-                    let was = model.is_armed();
-                    return match model.arm() {
-                        Ok(()) => {
-                            if !was {
-                                slot.dirty = true;
-                                slot.publish(now);
-                                slot.state(now, "armed");
-                            }
-                            Start::Finished(Ok(()))
-                        }
-                        Err(r) => refused(r),
-                    };
-                }
-                MultirotorAction::Disarm => {
-                    let was = model.is_armed();
-                    return match model.disarm() {
-                        Ok(()) => {
-                            if was {
-                                slot.publish(now);
-                                slot.state(now, "disarmed");
-                            }
-                            Start::Finished(Ok(()))
-                        }
-                        Err(r) => refused(r),
-                    };
-                }
-                MultirotorAction::Takeoff { height } => match model.takeoff(height) {
-                    Ok(()) => {
-                        let p = model.position();
-                        Until::Arrive(Vec3::new(p.x, p.y, height))
-                    }
+            // A resumed motion flies to the target recorded when it first
+            // started, whatever the action.
+            let resumed = match target {
+                Some(target) => match slot.model.go_to(target, FlightMode::Guided) {
+                    Ok(()) => Some(Until::Arrive(target)),
                     Err(r) => return refused(r),
                 },
-                MultirotorAction::Land => {
-                    if model.on_ground() {
-                        slot.state(now, "Land: already on the ground");
-                        return Start::Finished(Ok(()));
+                None => None,
+            };
+            let model = &mut slot.model;
+            let until = match resumed {
+                Some(until) => until,
+                None => match action {
+                    MultirotorAction::Arm => {
+                        let was = model.is_armed();
+                        return match model.arm() {
+                            Ok(()) => {
+                                if !was {
+                                    slot.dirty = true;
+                                    slot.publish(now);
+                                    slot.state(now, "armed");
+                                }
+                                Start::Finished(Ok(()))
+                            }
+                            Err(r) => refused(r),
+                        };
                     }
-                    model.land();
-                    Until::Landed
-                }
-                MultirotorAction::FlyBy { axis, distance } => {
-                    let target = model.reference() + axis.unit() * distance;
-                    match model.go_to(target, FlightMode::Guided) {
-                        Ok(()) => Until::Arrive(target),
+                    MultirotorAction::Disarm => {
+                        let was = model.is_armed();
+                        return match model.disarm() {
+                            Ok(()) => {
+                                if was {
+                                    slot.publish(now);
+                                    slot.state(now, "disarmed");
+                                }
+                                Start::Finished(Ok(()))
+                            }
+                            Err(r) => refused(r),
+                        };
+                    }
+                    MultirotorAction::Takeoff { height } => match model.takeoff(height) {
+                        Ok(()) => {
+                            let p = model.position();
+                            Until::Arrive(Vec3::new(p.x, p.y, height))
+                        }
                         Err(r) => return refused(r),
+                    },
+                    MultirotorAction::Land => {
+                        if model.on_ground() {
+                            slot.state(now, "Land: already on the ground");
+                            return Start::Finished(Ok(()));
+                        }
+                        model.land();
+                        Until::Landed
                     }
-                }
-                MultirotorAction::FlyTo { target } => {
-                    match model.go_to(target, FlightMode::Guided) {
-                        Ok(()) => Until::Arrive(target),
-                        Err(r) => return refused(r),
+                    MultirotorAction::FlyBy { axis, distance } => {
+                        let target = model.reference() + axis.unit() * distance;
+                        match model.go_to(target, FlightMode::Guided) {
+                            Ok(()) => Until::Arrive(target),
+                            Err(r) => return refused(r),
+                        }
                     }
-                }
-                MultirotorAction::ReturnHome => {
-                    let target = Vec3::new(0.0, 0.0, model.reference().z);
-                    match model.go_to(target, FlightMode::ReturnHome) {
-                        Ok(()) => Until::Arrive(target),
-                        Err(r) => return refused(r),
+                    MultirotorAction::FlyTo { target } => {
+                        match model.go_to(target, FlightMode::Guided) {
+                            Ok(()) => Until::Arrive(target),
+                            Err(r) => return refused(r),
+                        }
                     }
-                }
-                MultirotorAction::Hover { seconds } => {
-                    if !model.is_airborne() {
-                        return refused(Refusal::OnGround);
+                    MultirotorAction::ReturnHome => {
+                        let target = Vec3::new(0.0, 0.0, model.reference().z);
+                        match model.go_to(target, FlightMode::ReturnHome) {
+                            Ok(()) => Until::Arrive(target),
+                            Err(r) => return refused(r),
+                        }
                     }
-                    let at = model.reference();
-                    model.hold_at(at);
-                    Until::Time(now + seconds)
-                }
-                _ => unreachable!("every motion is matched above"),
+                    MultirotorAction::Hover { seconds } => {
+                        if !model.is_airborne() {
+                            return refused(Refusal::OnGround);
+                        }
+                        let at = model.reference();
+                        model.hold_at(at);
+                        Until::Time(now + seconds)
+                    }
+                    _ => unreachable!("every motion is matched above"),
+                },
             };
             let id = slot.next_motion;
             slot.next_motion += 1;
@@ -853,6 +931,37 @@ impl Adapter for SimDrone {
     }
 
     async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError> {
+        self.perform(call, None, cancel).await
+    }
+
+    fn motion_reference(&self) -> Result<Vec3, ActionError> {
+        Ok(self.with_slot(|slot, _| slot.model.reference()))
+    }
+
+    async fn fly_to_target(
+        &self,
+        call: &ActionCall,
+        target: Vec3,
+        cancel: CancellationToken,
+    ) -> Result<(), ActionError> {
+        if !target.is_finite() {
+            return Err(ActionError::bad_arguments(
+                &call.name,
+                format!("the target {target} is not finite"),
+            ));
+        }
+        self.perform(call, Some(target), cancel).await
+    }
+}
+
+impl SimDrone {
+    /// Runs `call`, towards `target` instead of its own target when given.
+    async fn perform(
+        &self,
+        call: &ActionCall,
+        target: Option<Vec3>,
+        cancel: CancellationToken,
+    ) -> Result<(), ActionError> {
         let action = MultirotorAction::parse(call)?;
         let name = action.name();
         if cancel.is_cancelled() {
@@ -860,7 +969,7 @@ impl Adapter for SimDrone {
                 action: name.to_string(),
             });
         }
-        match self.start(call, action) {
+        match self.start(call, action, target) {
             Start::Finished(result) => result,
             Start::Timed(seconds) => {
                 let clock = self.world.clock.clone();

@@ -712,3 +712,88 @@ async fn the_uniform_layer_reads_properties_the_profile_offers() {
         Err(crate::api::PropertyError::Unknown { .. })
     ));
 }
+
+#[tokio::test(start_paused = true)]
+async fn a_motion_resumed_towards_its_recorded_target_ends_there_not_one_move_further() {
+    let f = fleet(1.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    airborne(&d, 2.0).await;
+    let fly = call("FlyByX", &[4.0]);
+    let target = d.motion_target(&fly).unwrap();
+    assert!(target.distance(Vec3::new(4.0, 0.0, 2.0)) < 1e-9);
+    // The agent crashes half-way: the motion stops with its caller.
+    let cancel = CancellationToken::new();
+    let flight = tokio::spawn({
+        let (d, fly, cancel) = (d.clone(), fly.clone(), cancel.clone());
+        async move { d.run(&fly, cancel).await }
+    });
+    while now(&d).position.x < 1.5 {
+        tokio::time::sleep(Duration::from_millis(20)).await;
+    }
+    cancel.cancel();
+    assert!(flight.await.unwrap().is_err());
+    d.fly_to_target(&fly, target, CancellationToken::new())
+        .await
+        .unwrap();
+    let tol = d.model().config().arrival_tolerance;
+    assert!(now(&d).position.distance(target) <= tol);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_resumed_motion_on_the_ground_is_refused_like_any_motion() {
+    let f = fleet(1.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    let e = d
+        .fly_to_target(
+            &call("FlyByX", &[1.0]),
+            Vec3::new(1.0, 0.0, 2.0),
+            CancellationToken::new(),
+        )
+        .await
+        .unwrap_err();
+    assert_eq!(e.kind(), "refused");
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_restored_airframe_holds_in_the_air_where_it_was_recorded() {
+    let f = fleet(1.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    airborne(&d, 3.0).await;
+    run(&d, "FlyByY", &[2.0]).await.unwrap();
+    let recorded = d.airframe();
+    assert!(recorded.armed);
+
+    // The agent restarts: a new simulation, its clock at the recorded time.
+    let f2 = SimFleet::start_at(SimConfig::default(), recorded.time).unwrap();
+    assert!(f2.clock().now() >= recorded.time - 1e-9);
+    let d2 = drone(&f2, "D1", Vec3::ZERO);
+    d2.restore(&recorded).unwrap();
+    let t = now(&d2);
+    assert!(t.armed && !t.landed);
+    assert!(t.position.distance(recorded.position) < 1e-9);
+    tokio::time::sleep(Duration::from_secs(2)).await;
+    let tol = d2.model().config().arrival_tolerance;
+    assert!(
+        now(&d2).position.distance(recorded.position) <= tol,
+        "it holds"
+    );
+    // Take-off is refused in the air, as on the first run.
+    assert_eq!(
+        run(&d2, "Takeoff", &[3.0]).await.unwrap_err().kind(),
+        "refused"
+    );
+}
+
+#[tokio::test(start_paused = true)]
+async fn an_airframe_with_a_position_that_is_not_finite_is_refused() {
+    let f = fleet(1.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    let bad = Airframe {
+        time: 0.0,
+        position: Vec3::new(f64::NAN, 0.0, 1.0),
+        armed: true,
+        battery: 90.0,
+    };
+    assert!(d.restore(&bad).is_err());
+    assert!(now(&d).landed);
+}
