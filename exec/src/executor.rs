@@ -33,6 +33,7 @@ use eamos_petri::net::{Colour, Guard, TransitionKind};
 use eamos_slicer::Slice;
 
 use crate::guard::World;
+use crate::journal::{self, AgentJournal, Record};
 use crate::log::{DroneLog, MissionEvent};
 use crate::transport::reliable::{BridgeStats, Bridges, Delivered};
 use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
@@ -62,6 +63,9 @@ pub struct ExecutorOptions {
     pub progress: Option<mpsc::UnboundedSender<Progress>>,
     /// Stops the executor from outside (Ctrl-C): the drone lands.
     pub stop: CancellationToken,
+    /// Where this agent journals what it does, and what the journal held
+    /// when it started (see [`crate::journal`]).
+    pub journal: Option<AgentJournal>,
 }
 
 impl Default for ExecutorOptions {
@@ -74,6 +78,7 @@ impl Default for ExecutorOptions {
             source: None,
             progress: None,
             stop: CancellationToken::new(),
+            journal: None,
         }
     }
 }
@@ -236,7 +241,7 @@ impl Executor {
             }
         }
         let (finished_tx, finished_rx) = mpsc::unbounded_channel();
-        Executor {
+        let mut executor = Executor {
             world: World::new(slice.drones.clone()),
             slice,
             drone: agent.drone,
@@ -267,6 +272,168 @@ impl Executor {
             received: 0,
             ended: None,
             first_firing: None,
+        };
+        executor.recover();
+        executor
+    }
+
+    /// Takes over the state a journal recorded before a crash (nothing for
+    /// a first run).
+    fn recover(&mut self) {
+        let Some(r) = self.options.journal.as_ref().map(|j| j.recovered.clone()) else {
+            return;
+        };
+        if !r.is_resume() {
+            return;
+        }
+        self.marking = r.marking.clone();
+        self.started_actions = r.started.iter().cloned().collect();
+        self.started_order = r.started.clone();
+        self.succeeded = r.succeeded.clone();
+        self.actions = r.actions;
+        self.actions_cancelled = r.actions_cancelled;
+        self.sent = r.sent;
+        self.received = r.received;
+    }
+
+    /// After a restart from a journal: ends at once if the mission had
+    /// ended, sends what a journaled firing did not get to send, starts
+    /// what it did not get to start, and resumes the actions that were
+    /// running at the crash.
+    fn resume(&mut self) {
+        let Some(j) = self.options.journal.clone() else {
+            return;
+        };
+        let r = j.recovered;
+        if !r.is_resume() {
+            return;
+        }
+        let now = self.now();
+        if let Err(e) = j.journal.append(&Record::Resumed { time: now }, true) {
+            self.ended = Some(Outcome::Failed {
+                reason: format!("{}: {e}", self.me()),
+            });
+            return;
+        }
+        self.note(MissionEvent::Resumed {
+            records: r.records,
+            interrupted: r.interrupted.len(),
+            unacked: r.unacked.len(),
+        });
+        if let Some(reason) = &r.failed {
+            self.ended = Some(Outcome::Failed {
+                reason: reason.clone(),
+            });
+            return;
+        }
+        // The notices consumed before the crash count as they did then.
+        let notices = r
+            .ends
+            .iter()
+            .map(|p| (p, END))
+            .chain(r.aborts.iter().map(|p| (p, ABORT)));
+        for (from, bridge) in notices {
+            self.on_delivered(Delivered {
+                from: from.clone(),
+                bridge: bridge.to_string(),
+                colour: Vec::new(),
+                seq: 0,
+            });
+        }
+        if self.ended.is_some() {
+            return;
+        }
+        for (to, bridge, colour) in &r.unsent {
+            let seq = self.bridges.send(to, bridge, colour.clone());
+            self.sent += 1;
+            if let Ok(id) = bridge.parse() {
+                self.note(MissionEvent::BridgeSent {
+                    bridge: id,
+                    to: to.clone(),
+                    colour: colour.clone(),
+                    seq,
+                });
+            }
+        }
+        for (instance, colour) in &r.not_started {
+            if let Some(a) = self.action_ref(*instance) {
+                self.start_action(&a, colour.clone());
+            }
+        }
+        for i in &r.interrupted {
+            self.resume_action(i);
+        }
+    }
+
+    fn action_ref(&self, instance: u32) -> Option<eamos_petri::net::ActionRef> {
+        self.slice
+            .transitions
+            .iter()
+            .find_map(|t| match &t.transition.kind {
+                TransitionKind::ActionStart(a) if a.instance == instance => Some(a.clone()),
+                _ => None,
+            })
+    }
+
+    /// Runs on an action that was running when the agent crashed, towards
+    /// the target journaled when it started (see [`journal::resume_action`]).
+    fn resume_action(&mut self, i: &journal::Interrupted) {
+        let key = (i.instance, i.colour.clone());
+        self.note(MissionEvent::ActionResumed {
+            action: i.call.name.clone(),
+            args: i.call.args.clone(),
+            instance: i.instance,
+            colour: i.colour.clone(),
+            target: i.target,
+        });
+        self.progress(ProgressKind::ActionStarted(format!("{} (resumed)", i.call)));
+        let token = CancellationToken::new();
+        self.running.insert(key, token.clone());
+        let done = self.finished_tx.clone();
+        let (instance, colour, call, target, started) = (
+            i.instance,
+            i.colour.clone(),
+            i.call.clone(),
+            i.target,
+            i.time,
+        );
+        let action = call.to_string();
+        let drone = self.drone.clone();
+        tokio::spawn(async move {
+            let result = match drone {
+                Some(drone) => {
+                    journal::resume_action(drone.as_ref(), &call, target, started, token).await
+                }
+                None => Err(ActionError::Unsupported {
+                    action: action.clone(),
+                }),
+            };
+            let _ = done.send(Finished {
+                instance,
+                colour,
+                action,
+                result,
+            });
+        });
+    }
+
+    /// Journals `record`; a journal that cannot be written ends the run
+    /// (the agent could no longer promise to run each action once).
+    fn journal(&mut self, record: Record, durable: bool) -> bool {
+        let Some(j) = &self.options.journal else {
+            return true;
+        };
+        match j.journal.append(&record, durable) {
+            Ok(()) => true,
+            Err(e) => {
+                tracing::error!("{}: {e}", self.me());
+                if self.ended.is_none() {
+                    self.ended = Some(Outcome::Failed {
+                        reason: format!("{}: {e}", self.me()),
+                    });
+                }
+                false
+            }
         }
     }
 
@@ -304,6 +471,7 @@ impl Executor {
             bridges_in: self.slice.bridges_in.len(),
             bridges_out: self.slice.bridges_out.len(),
         });
+        self.resume();
         let publisher = CancellationToken::new();
         let mut own: Option<watch::Receiver<Telemetry>> = None;
         if let Some(drone) = &self.drone {
@@ -549,6 +717,13 @@ impl Executor {
             tokens.push(c);
         }
         self.enabled_since.remove(&(t, colour.clone()));
+        let fired = Record::Fired {
+            transition: st.transition.id.clone(),
+            colour: colour.clone(),
+        };
+        if !self.journal(fired, false) {
+            return;
+        }
         if self.first_firing.is_none() {
             self.first_firing = Some(self.now());
         }
@@ -615,6 +790,18 @@ impl Executor {
         self.started_actions.insert(key.clone());
         self.started_order.push(key.clone());
         let call = ActionCall::new(a.name.clone(), a.args.clone());
+        // Journaled before the drone is asked, with the absolute target of
+        // a motion: a crash from here on resumes it, never repeats it.
+        let started = Record::Started(journal::Started {
+            instance: a.instance,
+            colour: colour.clone(),
+            call: call.clone(),
+            target: self.drone.as_ref().and_then(|d| d.motion_target(&call)),
+            time: self.now(),
+        });
+        if !self.journal(started, true) {
+            return;
+        }
         self.note(MissionEvent::ActionStarted {
             action: a.name.clone(),
             args: a.args.clone(),
@@ -651,6 +838,12 @@ impl Executor {
     }
 
     fn on_finished(&mut self, f: Finished) {
+        let finished = Record::Finished {
+            instance: f.instance,
+            colour: f.colour.clone(),
+            error: f.result.as_ref().err().map(|e| e.kind().to_string()),
+        };
+        self.journal(finished, true);
         let key = (f.instance, f.colour.clone());
         let cancelled_by_us = !self.running.contains_key(&key);
         let (outcome, error) = match &f.result {
@@ -958,7 +1151,11 @@ async fn publish_telemetry(
     mut rx: watch::Receiver<Telemetry>,
     stop: CancellationToken,
 ) {
-    let mut seq = 0u64;
+    // Numbered from the wall clock, so that the samples of an agent
+    // restarted after a crash are not taken by its peers for old ones.
+    let mut seq = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_micros() as u64);
     let mut heartbeat = tokio::time::interval(Duration::from_millis(250));
     heartbeat.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     loop {

@@ -5,6 +5,7 @@
 //! - [`transport`]: links between peers and exactly-once bridges over them.
 //! - [`executor`]: the token game of one slice, played with a real adapter.
 //! - [`guard`]: conditions evaluated over drones' telemetry.
+//! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
 //! - [`log`]: the per-drone mission, uniform and adapter logs.
 //! - [`fleet`]: the fleet file (adapters, homes, endpoints).
 //! - [`identity`]: the mission identity (mission and fleet) and slice digests.
@@ -18,6 +19,7 @@ pub mod executor;
 pub mod fleet;
 pub mod guard;
 pub mod identity;
+pub mod journal;
 pub mod log;
 pub mod runner;
 pub mod svg;

@@ -80,6 +80,25 @@ pub enum MissionEvent {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         error: Option<String>,
     },
+    /// The agent restarted from its journal: how many records it replayed,
+    /// how many actions were running at the crash, how many messages it
+    /// sends again.
+    Resumed {
+        records: usize,
+        interrupted: usize,
+        unacked: usize,
+    },
+    /// An action that was running when the agent crashed goes on (a motion
+    /// towards the target journaled when it started). Its end is logged as
+    /// `action_finished`; it is not a second start.
+    ActionResumed {
+        action: String,
+        args: Vec<f64>,
+        instance: u32,
+        colour: Colour,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        target: Option<eamos_mid::Vec3>,
+    },
     /// An interrupted `Do` cancelled a running action.
     ActionCancelled {
         action: String,
@@ -120,12 +139,22 @@ impl LogWriter {
     /// Creates `dir` if needed; files are created on their first record and
     /// truncated then (a new run replaces the old logs).
     pub fn create(dir: &Path) -> std::io::Result<LogWriter> {
+        Self::open(dir, false)
+    }
+
+    /// Like [`LogWriter::create`], but appends to the files that exist: an
+    /// agent resumed from its journal keeps the records of its first run.
+    pub fn append(dir: &Path) -> std::io::Result<LogWriter> {
+        Self::open(dir, true)
+    }
+
+    fn open(dir: &Path, append: bool) -> std::io::Result<LogWriter> {
         std::fs::create_dir_all(dir)?;
         let (tx, rx) = std_mpsc::channel::<Line>();
         let root = dir.to_path_buf();
         let thread = std::thread::Builder::new()
             .name("eamos-logs".into())
-            .spawn(move || write_all(&root, rx))?;
+            .spawn(move || write_all(&root, rx, append))?;
         Ok(LogWriter {
             tx: Some(tx),
             thread: Some(thread),
@@ -203,10 +232,23 @@ impl LogSink for DroneLog {
     }
 }
 
-fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>) -> Vec<String> {
+fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>, append: bool) -> Vec<String> {
     let mut files: HashMap<PathBuf, Option<BufWriter<File>>> = HashMap::new();
     let mut errors = Vec::new();
-    for line in rx {
+    loop {
+        // Whenever no record is waiting, what was written goes to the
+        // files: a process killed outright loses no record it had written.
+        let line = match rx.try_recv() {
+            Ok(line) => line,
+            Err(std_mpsc::TryRecvError::Disconnected) => break,
+            Err(std_mpsc::TryRecvError::Empty) => {
+                flush_all(&mut files, &mut errors);
+                match rx.recv() {
+                    Ok(line) => line,
+                    Err(_) => break,
+                }
+            }
+        };
         let (path, text) = match line {
             Line::Mission(d, r) => (
                 root.join(format!("{d}.mission.jsonl")),
@@ -223,7 +265,7 @@ fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>) -> Vec<String> {
         };
         let file = files
             .entry(path.clone())
-            .or_insert_with(|| match File::create(&path) {
+            .or_insert_with(|| match open_file(&path, append) {
                 Ok(f) => Some(BufWriter::new(f)),
                 Err(e) => {
                     errors.push(format!("cannot create {}: {e}", path.display()));
@@ -237,14 +279,30 @@ fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>) -> Vec<String> {
             }
         }
     }
-    for (path, f) in files.iter_mut() {
-        if let Some(f) = f {
+    flush_all(&mut files, &mut errors);
+    errors
+}
+
+fn open_file(path: &Path, append: bool) -> std::io::Result<File> {
+    if append {
+        std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(path)
+    } else {
+        File::create(path)
+    }
+}
+
+fn flush_all(files: &mut HashMap<PathBuf, Option<BufWriter<File>>>, errors: &mut Vec<String>) {
+    for (path, file) in files.iter_mut() {
+        if let Some(f) = file {
             if let Err(e) = f.flush() {
                 errors.push(format!("cannot write {}: {e}", path.display()));
+                *file = None;
             }
         }
     }
-    errors
 }
 
 /// Reads a mission log back (for tests and for tools that check runs).

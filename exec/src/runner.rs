@@ -16,12 +16,13 @@ use tokio_util::sync::CancellationToken;
 
 use eamos_lang::SourceFile;
 use eamos_mid::mavlink::{MavlinkAdapter, MavlinkOptions};
-use eamos_mid::{Adapter, MissionClock, SimFleet, Uniform, Vec3};
+use eamos_mid::{Adapter, Airframe, MissionClock, SimDrone, SimFleet, Uniform, Vec3};
 use eamos_profile::ProfileTable;
 use eamos_slicer::Slices;
 
 use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
 use crate::fleet::{AdapterKind, Fleet};
+use crate::journal::{self, AgentJournal, JournalError};
 use crate::log::{DroneLog, LogWriter};
 use crate::transport::faulty::{Faults, FaultyLink};
 use crate::transport::inproc::InProcessHub;
@@ -60,6 +61,10 @@ pub struct RunOptions {
     /// Seeds the simulator's random processes (each drone's wind gusts,
     /// mixed with the drone's index).
     pub seed: u64,
+    /// Where each peer journals what it does (`<peer>.journal`) and each
+    /// simulated drone its airframe: a peer started again with the same
+    /// directory resumes where it was (see [`crate::journal`]).
+    pub journal: Option<PathBuf>,
 }
 
 impl Default for RunOptions {
@@ -77,6 +82,7 @@ impl Default for RunOptions {
             startup_timeout: Duration::from_secs(60),
             linger: Duration::from_secs(2),
             seed: 0,
+            journal: None,
         }
     }
 }
@@ -95,6 +101,8 @@ pub enum RunError {
     UnknownPeer(String, String),
     #[error(transparent)]
     Transport(#[from] TransportError),
+    #[error(transparent)]
+    Journal(#[from] JournalError),
 }
 
 /// What a run did, for the summary and the plot.
@@ -122,6 +130,8 @@ struct Built {
     clock: MissionClock,
     /// Keeps the simulation running.
     _sim: Option<SimFleet>,
+    /// The simulated drones, whose airframes a journaled run records.
+    sims: BTreeMap<String, SimDrone>,
 }
 
 /// Creates the adapters of `drones` (a subset of the mission's), each in
@@ -133,6 +143,7 @@ async fn build_adapters(
     drones: &[String],
     options: &RunOptions,
     logs: &LogWriter,
+    airframes: &BTreeMap<String, Airframe>,
 ) -> Result<Built, RunError> {
     let all = &slices.distributed.drones;
     let needs_sim = drones
@@ -141,7 +152,9 @@ async fn build_adapters(
     let sim = if needs_sim {
         let mut config = fleet.sim.clone().unwrap_or_default();
         config.speed = options.speed;
-        Some(SimFleet::start(config).map_err(|e| RunError::Sim(e.to_string()))?)
+        // A resumed simulation goes on from the latest airframe's time.
+        let time = airframes.values().map(|a| a.time).fold(0.0, f64::max);
+        Some(SimFleet::start_at(config, time).map_err(|e| RunError::Sim(e.to_string()))?)
     } else {
         None
     };
@@ -150,6 +163,7 @@ async fn build_adapters(
         .map(SimFleet::clock)
         .unwrap_or_else(MissionClock::wall);
     let mut adapters: BTreeMap<String, Arc<dyn Adapter>> = BTreeMap::new();
+    let mut sims = BTreeMap::new();
     for d in drones {
         let index = all.iter().position(|x| x == d).unwrap_or(0);
         let profile_name = slices
@@ -172,11 +186,14 @@ async fn build_adapters(
                 let fleet_sim = sim
                     .as_ref()
                     .expect("a simulator exists for simulated drones");
-                Arc::new(
-                    fleet_sim
-                        .add_drone(fleet.sim_spec(d, index), log.clone())
-                        .map_err(|e| RunError::Sim(e.to_string()))?,
-                )
+                let drone = fleet_sim
+                    .add_drone(fleet.sim_spec(d, index), log.clone())
+                    .map_err(|e| RunError::Sim(e.to_string()))?;
+                if let Some(a) = airframes.get(d) {
+                    drone.restore(a).map_err(|e| RunError::Sim(e.to_string()))?;
+                }
+                sims.insert(d.clone(), drone.clone());
+                Arc::new(drone)
             }
             AdapterKind::Mavlink => {
                 let connection = entry.connection.clone().unwrap_or_default();
@@ -204,6 +221,124 @@ async fn build_adapters(
         adapters,
         clock,
         _sim: sim,
+        sims,
+    })
+}
+
+/// The bridges of one peer, journaled when the run keeps a journal.
+fn start_bridges(
+    slices: &Slices,
+    link: Arc<dyn crate::transport::Link>,
+    frames: mpsc::UnboundedReceiver<crate::transport::Frame>,
+    options: &RunOptions,
+    journal: Option<&AgentJournal>,
+) -> (
+    Bridges,
+    mpsc::UnboundedReceiver<crate::transport::reliable::Delivered>,
+) {
+    match journal {
+        Some(j) => Bridges::start_journaled(
+            slices.mission_id.clone(),
+            link,
+            frames,
+            options.retransmit,
+            j.journal.clone(),
+            &j.recovered,
+        ),
+        None => Bridges::start(slices.mission_id.clone(), link, frames, options.retransmit),
+    }
+}
+
+/// Opens the journal of each peer in `peers`, when the run keeps one.
+fn open_journals(
+    slices: &Slices,
+    peers: &[String],
+    options: &RunOptions,
+) -> Result<BTreeMap<String, AgentJournal>, RunError> {
+    let Some(dir) = &options.journal else {
+        return Ok(BTreeMap::new());
+    };
+    let mut out = BTreeMap::new();
+    for p in peers {
+        let slice = slices.get(p).expect("every peer has a slice");
+        out.insert(p.clone(), journal::open_agent(dir, slice)?);
+    }
+    Ok(out)
+}
+
+/// The airframes recorded for `drones` by an earlier run of this journal
+/// (only for peers that resume: a new journal starts every drone at home).
+fn recorded_airframes(
+    drones: &[String],
+    journals: &BTreeMap<String, AgentJournal>,
+    options: &RunOptions,
+) -> Result<BTreeMap<String, Airframe>, RunError> {
+    let mut out = BTreeMap::new();
+    let Some(dir) = &options.journal else {
+        return Ok(out);
+    };
+    for d in drones {
+        if !journals.get(d).is_some_and(|j| j.recovered.is_resume()) {
+            continue;
+        }
+        if let Some(a) = journal::read_airframe(&journal::airframe_path(dir, d))? {
+            out.insert(d.clone(), a);
+        }
+    }
+    Ok(out)
+}
+
+/// Records the simulated airframes every few milliseconds of wall time
+/// while the run lasts: the simulator lives in this process, and a
+/// restarted agent puts its drone back where it was last recorded.
+fn record_airframes(
+    sims: &BTreeMap<String, SimDrone>,
+    options: &RunOptions,
+    stop: CancellationToken,
+) {
+    let Some(dir) = options.journal.clone() else {
+        return;
+    };
+    for (name, drone) in sims {
+        let path = journal::airframe_path(&dir, name);
+        let drone = drone.clone();
+        let stop = stop.clone();
+        tokio::spawn(async move {
+            let mut last = None;
+            loop {
+                let a = drone.airframe();
+                let changed =
+                    last.is_none_or(|l: Airframe| l.position != a.position || l.armed != a.armed);
+                if changed {
+                    if let Err(e) = journal::write_airframe(&path, &a) {
+                        tracing::warn!("cannot record the airframe in {}: {e}", path.display());
+                    }
+                    last = Some(a);
+                }
+                tokio::select! {
+                    _ = stop.cancelled() => return,
+                    _ = tokio::time::sleep(Duration::from_millis(5)) => {}
+                }
+            }
+        });
+    }
+}
+
+/// The logs of a run: appended to when a peer resumes from its journal
+/// (the records of its first run stay), replaced otherwise.
+fn open_logs(
+    options: &RunOptions,
+    journals: &BTreeMap<String, AgentJournal>,
+) -> Result<LogWriter, RunError> {
+    let resuming = journals.values().any(|j| j.recovered.is_resume());
+    let logs = if resuming {
+        LogWriter::append(&options.out)
+    } else {
+        LogWriter::create(&options.out)
+    };
+    logs.map_err(|e| RunError::Logs {
+        dir: options.out.display().to_string(),
+        error: e.to_string(),
     })
 }
 
@@ -280,6 +415,7 @@ fn executor_options(slices: &Slices, options: &RunOptions) -> ExecutorOptions {
         source: options.source.clone(),
         progress: options.progress.clone(),
         stop: options.stop.clone(),
+        journal: None,
     }
 }
 
@@ -292,10 +428,8 @@ pub async fn run_fleet(
     options: &RunOptions,
 ) -> Result<RunReport, RunError> {
     let wall = Instant::now();
-    let logs = LogWriter::create(&options.out).map_err(|e| RunError::Logs {
-        dir: options.out.display().to_string(),
-        error: e.to_string(),
-    })?;
+    let journals = open_journals(slices, &peers(slices), options)?;
+    let logs = open_logs(options, &journals)?;
     // Links first: opening a zenoh peer takes a while, and the simulated
     // clock should not run meanwhile.
     let hub = InProcessHub::new();
@@ -314,19 +448,18 @@ pub async fn run_fleet(
         );
     }
     let drones = slices.distributed.drones.clone();
-    let built = build_adapters(slices, fleet, profiles, &drones, options, &logs).await?;
+    let airframes = recorded_airframes(&drones, &journals, options)?;
+    let built =
+        build_adapters(slices, fleet, profiles, &drones, options, &logs, &airframes).await?;
     let paths_stop = CancellationToken::new();
     let paths = record_paths(&built.adapters, paths_stop.clone());
+    record_airframes(&built.sims, options, paths_stop.clone());
     let mut bridges = Vec::new();
     let mut tasks = Vec::new();
     for (peer, e) in peers(slices).into_iter().zip(endpoints) {
         let slice = slices.get(&peer).expect("every peer has a slice").clone();
-        let (b, delivered) = Bridges::start(
-            slices.mission_id.clone(),
-            e.link.clone(),
-            e.frames,
-            options.retransmit,
-        );
+        let journal = journals.get(&peer);
+        let (b, delivered) = start_bridges(slices, e.link.clone(), e.frames, options, journal);
         let b = Arc::new(b);
         bridges.push(b.clone());
         let agent = Agent {
@@ -339,7 +472,9 @@ pub async fn run_fleet(
             telemetry: e.telemetry,
             log: logs.drone(&peer),
         };
-        let exec = Executor::new(agent, executor_options(slices, options));
+        let mut exec_options = executor_options(slices, options);
+        exec_options.journal = journal.cloned();
+        let exec = Executor::new(agent, exec_options);
         tasks.push(tokio::spawn(exec.run()));
     }
     let mut reports = Vec::new();
@@ -379,18 +514,19 @@ pub async fn run_peer(
     if !all.iter().any(|p| p == peer) {
         return Err(RunError::UnknownPeer(peer.to_string(), all.join(", ")));
     }
-    let logs = LogWriter::create(&options.out).map_err(|e| RunError::Logs {
-        dir: options.out.display().to_string(),
-        error: e.to_string(),
-    })?;
+    let journals = open_journals(slices, &[peer.to_string()], options)?;
+    let logs = open_logs(options, &journals)?;
     let drones: Vec<String> = if peer == GCS {
         Vec::new()
     } else {
         vec![peer.to_string()]
     };
-    let built = build_adapters(slices, fleet, profiles, &drones, options, &logs).await?;
+    let airframes = recorded_airframes(&drones, &journals, options)?;
+    let built =
+        build_adapters(slices, fleet, profiles, &drones, options, &logs, &airframes).await?;
     let paths_stop = CancellationToken::new();
     let paths = record_paths(&built.adapters, paths_stop.clone());
+    record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
     let e = endpoint(
         slices,
@@ -401,12 +537,8 @@ pub async fn run_peer(
         options.faults,
     )
     .await?;
-    let (b, delivered) = Bridges::start(
-        slices.mission_id.clone(),
-        e.link.clone(),
-        e.frames,
-        options.retransmit,
-    );
+    let journal = journals.get(peer);
+    let (b, delivered) = start_bridges(slices, e.link.clone(), e.frames, options, journal);
     let b = Arc::new(b);
     let agent = Agent {
         slice: slices.get(peer).expect("checked above").clone(),
@@ -418,9 +550,9 @@ pub async fn run_peer(
         telemetry: e.telemetry,
         log: logs.drone(peer),
     };
-    let report = Executor::new(agent, executor_options(slices, options))
-        .run()
-        .await;
+    let mut exec_options = executor_options(slices, options);
+    exec_options.journal = journal.cloned();
+    let report = Executor::new(agent, exec_options).run().await;
     // Peers whose acknowledgement from us was lost retransmit: stay a
     // moment to acknowledge them again.
     tokio::time::sleep(options.linger).await;

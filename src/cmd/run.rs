@@ -70,6 +70,13 @@ pub struct Args {
     /// How long the ground station waits for its peers to come up.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub startup_timeout: f64,
+    /// Journal what each peer does in DIR (`<peer>.journal`, and each
+    /// simulated drone's airframe), flushed to the disk before a message
+    /// is acknowledged or an action started. Run again with the same DIR
+    /// after a crash: the peer resumes where it was, every action run
+    /// exactly once, and appends to its logs.
+    #[arg(long, value_name = "DIR")]
+    pub journal: Option<PathBuf>,
 }
 
 fn bad_input(message: &str) -> ExitCode {
@@ -165,6 +172,7 @@ pub fn run(args: Args) -> ExitCode {
         progress: Some(progress_tx),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
         seed: args.seed,
+        journal: args.journal.clone(),
         ..RunOptions::default()
     };
     let shown: Vec<String> = match &peer {

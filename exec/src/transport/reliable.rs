@@ -8,6 +8,14 @@
 //! backoff; the receiver acknowledges every copy it gets (the first ack may
 //! be the one that was lost) and hands each (bridge, colour) to its executor
 //! once.
+//!
+//! With a [`Journal`], the bridges survive a crash of their peer: a token is
+//! journaled (and flushed to the disk) before it is acknowledged, every
+//! token sent is journaled with its sequence number before it leaves, and
+//! acknowledgements are journaled as they come. Restarted from the journal
+//! ([`Bridges::start_journaled`]), the bridges still drop copies of tokens
+//! consumed before the crash and send again, with their original sequence
+//! numbers, the tokens that were never acknowledged.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex};
@@ -19,6 +27,7 @@ use tokio::time::Instant;
 use eamos_petri::net::Colour;
 
 use super::{Ack, BridgeMessage, Frame, Link, PeerId};
+use crate::journal::{Journal, Record, Recovered, Sent};
 
 /// When to send a token again that has not been acknowledged.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -80,6 +89,7 @@ enum Command {
 pub struct Bridges {
     commands: mpsc::UnboundedSender<Command>,
     next_seq: Mutex<u64>,
+    journal: Option<Arc<Journal>>,
     /// Tokens sent and not yet acknowledged; counted up by `send` itself so
     /// that a `flush` right after a `send` cannot miss it.
     unacked: Arc<watch::Sender<usize>>,
@@ -101,25 +111,80 @@ impl Bridges {
         frames: mpsc::UnboundedReceiver<Frame>,
         policy: RetransmitPolicy,
     ) -> (Bridges, mpsc::UnboundedReceiver<Delivered>) {
+        Self::start_with(mission.into(), link, frames, policy, None, None)
+    }
+
+    /// Starts the bridges of a peer that keeps a journal, from what the
+    /// journal held (`recovered`; empty for a first run): tokens consumed
+    /// before are recognised, tokens not acknowledged are sent again at
+    /// once with their original sequence numbers, and new tokens are
+    /// numbered after the last one journaled.
+    pub fn start_journaled(
+        mission: impl Into<String>,
+        link: Arc<dyn Link>,
+        frames: mpsc::UnboundedReceiver<Frame>,
+        policy: RetransmitPolicy,
+        journal: Arc<Journal>,
+        recovered: &Recovered,
+    ) -> (Bridges, mpsc::UnboundedReceiver<Delivered>) {
+        Self::start_with(
+            mission.into(),
+            link,
+            frames,
+            policy,
+            Some(journal),
+            Some(recovered),
+        )
+    }
+
+    fn start_with(
+        mission: String,
+        link: Arc<dyn Link>,
+        frames: mpsc::UnboundedReceiver<Frame>,
+        policy: RetransmitPolicy,
+        journal: Option<Arc<Journal>>,
+        recovered: Option<&Recovered>,
+    ) -> (Bridges, mpsc::UnboundedReceiver<Delivered>) {
         let (commands, command_rx) = mpsc::unbounded_channel();
         let (delivered_tx, delivered_rx) = mpsc::unbounded_channel();
-        let unacked = Arc::new(watch::channel(0).0);
+        let me = link.me().to_string();
+        let mut pending = HashMap::new();
+        let now = Instant::now();
+        for s in recovered.map(|r| r.unacked.as_slice()).unwrap_or_default() {
+            pending.insert(
+                (s.to.clone(), s.bridge.clone(), s.colour.clone()),
+                Pending {
+                    message: BridgeMessage {
+                        mission: mission.clone(),
+                        from: me.clone(),
+                        bridge: s.bridge.clone(),
+                        colour: s.colour.clone(),
+                        seq: s.seq,
+                    },
+                    due: now,
+                    wait: policy.initial,
+                },
+            );
+        }
+        let unacked = Arc::new(watch::channel(pending.len()).0);
         let stats = Arc::new(Mutex::new(BridgeStats::default()));
         let task = BridgeTask {
-            mission: mission.into(),
+            mission,
             link,
             policy,
-            pending: HashMap::new(),
-            delivered: HashSet::new(),
+            pending,
+            delivered: recovered.map(|r| r.delivered.clone()).unwrap_or_default(),
             delivered_tx,
             unacked: unacked.clone(),
             stats: stats.clone(),
+            journal: journal.clone(),
         };
         tokio::spawn(task.run(frames, command_rx));
         (
             Bridges {
                 commands,
-                next_seq: Mutex::new(0),
+                next_seq: Mutex::new(recovered.map_or(0, |r| r.last_seq)),
+                journal,
                 unacked,
                 stats,
             },
@@ -135,6 +200,19 @@ impl Bridges {
             *s += 1;
             *s
         };
+        if let Some(journal) = &self.journal {
+            // Journaled before it leaves: after a crash it is sent again
+            // with this number until acknowledged.
+            let record = Record::Sent(Sent {
+                to: to.to_string(),
+                bridge: bridge.to_string(),
+                colour: colour.clone(),
+                seq,
+            });
+            if let Err(e) = journal.append(&record, true) {
+                tracing::error!("{bridge} to {to} is sent but not journaled: {e}");
+            }
+        }
         self.unacked.send_modify(|n| *n += 1);
         let _ = self.commands.send(Command::Send {
             to: to.to_string(),
@@ -170,6 +248,7 @@ struct BridgeTask {
     delivered_tx: mpsc::UnboundedSender<Delivered>,
     unacked: Arc<watch::Sender<usize>>,
     stats: Arc<Mutex<BridgeStats>>,
+    journal: Option<Arc<Journal>>,
 }
 
 impl BridgeTask {
@@ -236,6 +315,24 @@ impl BridgeTask {
                     tracing::warn!("dropped a token of mission {} from {}", m.mission, m.from);
                     return;
                 }
+                let key = (m.from.clone(), m.bridge.clone(), m.colour.clone());
+                let first = !self.delivered.contains(&key);
+                if first {
+                    if let Some(journal) = &self.journal {
+                        let record = Record::Consumed {
+                            from: m.from.clone(),
+                            bridge: m.bridge.clone(),
+                            colour: m.colour.clone(),
+                            seq: m.seq,
+                        };
+                        // Journaled before acknowledged; unjournaled, it is
+                        // not acknowledged and its sender tries again.
+                        if let Err(e) = journal.append(&record, true) {
+                            tracing::error!("{} from {} not acknowledged: {e}", m.bridge, m.from);
+                            return;
+                        }
+                    }
+                }
                 let ack = Frame::Ack(Ack {
                     mission: self.mission.clone(),
                     from: self.link.me().to_string(),
@@ -248,8 +345,8 @@ impl BridgeTask {
                     tracing::debug!("ack to {} failed: {e}", m.from);
                 }
                 self.stat(|s| s.acks_sent += 1);
-                let key = (m.from.clone(), m.bridge.clone(), m.colour.clone());
-                if self.delivered.insert(key) {
+                if first {
+                    self.delivered.insert(key);
                     self.stat(|s| s.received += 1);
                     let _ = self.delivered_tx.send(Delivered {
                         from: m.from,
@@ -266,8 +363,18 @@ impl BridgeTask {
                     self.stat(|s| s.foreign += 1);
                     return;
                 }
-                if self.pending.remove(&(a.from, a.bridge, a.colour)).is_some() {
+                let key = (a.from, a.bridge, a.colour);
+                if self.pending.remove(&key).is_some() {
                     self.unacked.send_modify(|n| *n -= 1);
+                    if let Some(journal) = &self.journal {
+                        // Not flushed: an ack lost in a crash only costs a
+                        // copy that the receiver drops.
+                        let (to, bridge, colour) = key;
+                        let record = Record::Acked { to, bridge, colour };
+                        if let Err(e) = journal.append(&record, false) {
+                            tracing::warn!("an acknowledgement is not journaled: {e}");
+                        }
+                    }
                 }
             }
         }

@@ -1,0 +1,521 @@
+//! The journal as a file (torn tails, damage, another mission's journal)
+//! and its replay over a slice (the marking, the messages to send again,
+//! the actions to resume).
+
+use super::*;
+
+use std::path::Path;
+
+fn sent(to: &str, bridge: &str, colour: &[u32], seq: u64) -> Record {
+    Record::Sent(Sent {
+        to: to.into(),
+        bridge: bridge.into(),
+        colour: colour.to_vec(),
+        seq,
+    })
+}
+
+fn some_records() -> Vec<Record> {
+    vec![
+        Record::Consumed {
+            from: "GCS".into(),
+            bridge: "0".into(),
+            colour: vec![],
+            seq: 1,
+        },
+        Record::Fired {
+            transition: "t3".into(),
+            colour: vec![2],
+        },
+        sent("D2", "4", &[2], 7),
+        Record::Started(Started {
+            instance: 3,
+            colour: vec![],
+            call: ActionCall::new("FlyByX", vec![5.0]),
+            target: Some(Vec3::new(5.0, 0.0, 1.5)),
+            time: 12.5,
+        }),
+        Record::Acked {
+            to: "D2".into(),
+            bridge: "4".into(),
+            colour: vec![2],
+        },
+        Record::Finished {
+            instance: 3,
+            colour: vec![],
+            error: None,
+        },
+    ]
+}
+
+/// A journal file holding the header and `records`.
+fn journal_with(dir: &Path, records: &[Record]) -> PathBuf {
+    let path = Journal::path(dir, "D1");
+    let opened = Journal::open(&path, "M-1", "D1").unwrap();
+    assert!(opened.records.is_empty());
+    for r in records {
+        opened.journal.append(r, false).unwrap();
+    }
+    path
+}
+
+#[test]
+fn records_read_back_as_they_were_written_after_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let opened = Journal::open(&path, "M-1", "D1").unwrap();
+    assert_eq!(opened.records, some_records());
+    assert_eq!(opened.torn, 0);
+}
+
+#[test]
+fn a_journal_cut_anywhere_reads_as_the_records_before_the_cut_and_never_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let bytes = std::fs::read(&path).unwrap();
+    let header = encode(&Record::Opened {
+        mission_id: "M-1".into(),
+        peer: "D1".into(),
+    })
+    .len();
+    // Where each record ends, from the header on.
+    let mut ends = vec![header];
+    for r in some_records() {
+        ends.push(ends.last().unwrap() + encode(&r).len());
+    }
+    assert_eq!(*ends.last().unwrap(), bytes.len());
+    for cut in 0..=bytes.len() {
+        let read = decode("D1.journal", &bytes[..cut]).unwrap();
+        let whole = ends.iter().filter(|e| **e <= cut).count();
+        assert_eq!(read.records.len(), whole, "cut at {cut}");
+        assert_eq!(read.intact + read.torn, cut as u64);
+    }
+}
+
+#[test]
+fn a_torn_last_record_is_cut_off_and_the_journal_goes_on_after_the_intact_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let full = std::fs::read(&path).unwrap();
+    std::fs::write(&path, &full[..full.len() - 3]).unwrap();
+
+    let opened = Journal::open(&path, "M-1", "D1").unwrap();
+    assert_eq!(opened.records, some_records()[..5].to_vec());
+    assert!(opened.torn > 0);
+    let again = Record::Resumed { time: 20.0 };
+    opened.journal.append(&again, true).unwrap();
+    drop(opened);
+
+    let reopened = Journal::open(&path, "M-1", "D1").unwrap();
+    assert_eq!(reopened.torn, 0);
+    assert_eq!(reopened.records.last(), Some(&again));
+    assert_eq!(reopened.records.len(), 6);
+}
+
+#[test]
+fn a_last_record_whose_checksum_does_not_match_is_taken_for_a_torn_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let mut bytes = std::fs::read(&path).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0xff;
+    let read = decode("D1.journal", &bytes).unwrap();
+    assert_eq!(read.records.len(), 1 + some_records().len() - 1);
+    assert!(read.torn > 0);
+}
+
+#[test]
+fn a_zero_filled_end_left_by_a_power_cut_is_a_torn_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes.extend_from_slice(&[0; 37]);
+    let read = decode("D1.journal", &bytes).unwrap();
+    assert_eq!(read.records.len(), 1 + some_records().len());
+    assert_eq!(read.torn, 37);
+}
+
+#[test]
+fn a_damaged_record_followed_by_intact_ones_is_refused_with_its_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let mut bytes = std::fs::read(&path).unwrap();
+    let header = encode(&Record::Opened {
+        mission_id: "M-1".into(),
+        peer: "D1".into(),
+    })
+    .len();
+    // A bit flipped in the payload of the first record after the header.
+    bytes[header + HEADER + 1] ^= 0x01;
+    std::fs::write(&path, &bytes).unwrap();
+    let err = Journal::open(&path, "M-1", "D1").err().unwrap();
+    match &err {
+        JournalError::Damaged { offset, reason, .. } => {
+            assert_eq!(*offset, header as u64);
+            assert!(reason.contains("checksum"), "{reason}");
+        }
+        other => panic!("expected damage, got {other}"),
+    }
+    assert!(err.to_string().contains(&format!("byte {header}")));
+    // The damaged journal is left as it was for whoever looks at it.
+    assert_eq!(std::fs::read(&path).unwrap(), bytes);
+}
+
+#[test]
+fn a_damaged_length_followed_by_intact_records_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let mut bytes = std::fs::read(&path).unwrap();
+    let header = encode(&Record::Opened {
+        mission_id: "M-1".into(),
+        peer: "D1".into(),
+    })
+    .len();
+    bytes[header + 3] = 0x7f;
+    assert!(matches!(
+        decode("D1.journal", &bytes),
+        Err(JournalError::Damaged { .. })
+    ));
+}
+
+#[test]
+fn a_journal_of_another_mission_or_peer_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &some_records());
+    let err = Journal::open(&path, "M-2", "D1").err().unwrap();
+    assert!(matches!(err, JournalError::Foreign { .. }), "{err}");
+    assert!(err.to_string().contains("mission M-1, peer D1"), "{err}");
+    let err = Journal::open(&path, "M-1", "D2").err().unwrap();
+    assert!(matches!(err, JournalError::Foreign { .. }), "{err}");
+}
+
+#[test]
+fn a_journal_that_does_not_start_with_its_header_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("D1.journal");
+    std::fs::write(&path, encode(&Record::Resumed { time: 1.0 })).unwrap();
+    assert!(matches!(
+        Journal::open(&path, "M-1", "D1"),
+        Err(JournalError::Damaged { .. })
+    ));
+}
+
+#[test]
+fn a_journal_in_a_directory_that_cannot_be_made_is_an_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("plain-file");
+    std::fs::write(&file, "x").unwrap();
+    let err = Journal::open(&file.join("sub").join("D1.journal"), "M-1", "D1")
+        .err()
+        .unwrap();
+    assert!(err.to_string().contains("plain-file"), "{err}");
+}
+
+// Replay over a real slice.
+
+fn slices(mission: &str) -> eamos_slicer::Slices {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/missions/paper")
+        .join(mission);
+    let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(path).unwrap());
+    let profiles = eamos_mid::profiles::builtin();
+    let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
+    eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
+}
+
+fn transition(slice: &Slice, kind: &str, name: &str) -> (String, u32) {
+    slice
+        .transitions
+        .iter()
+        .find_map(|t| match &t.transition.kind {
+            TransitionKind::ActionStart(a) if kind == "start" && a.name == name => {
+                Some((t.transition.id.clone(), a.instance))
+            }
+            TransitionKind::ActionEnd(a) if kind == "end" && a.name == name => {
+                Some((t.transition.id.clone(), a.instance))
+            }
+            _ => None,
+        })
+        .unwrap()
+}
+
+#[test]
+fn an_empty_journal_replays_to_the_initial_marking() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let r = replay(slice, "j", &[]).unwrap();
+    assert!(!r.is_resume());
+    let marked: Vec<u32> = (0..slice.places.len() as u32)
+        .filter(|p| !r.marking[*p as usize].is_empty())
+        .collect();
+    let mut initial = slice.initial_marking.clone();
+    initial.sort();
+    initial.dedup();
+    assert_eq!(marked, initial);
+}
+
+#[test]
+fn a_firing_whose_message_was_not_journaled_as_sent_is_sent_on_resume() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let b = &slice.bridges_out[0];
+    let t = &slice.transitions[b.transition as usize].transition.id;
+    let fired = Record::Fired {
+        transition: t.clone(),
+        colour: vec![],
+    };
+    let r = replay(slice, "j", std::slice::from_ref(&fired)).unwrap();
+    assert_eq!(r.unsent, vec![(b.to.clone(), b.id.to_string(), vec![])]);
+    let r = replay(slice, "j", &[fired, sent(&b.to, &b.id.to_string(), &[], 4)]).unwrap();
+    assert!(r.unsent.is_empty());
+    assert_eq!(r.unacked.len(), 1);
+    assert_eq!(r.unacked[0].seq, 4, "sent again with its own number");
+    assert_eq!(r.last_seq, 4);
+}
+
+#[test]
+fn messages_acknowledged_before_the_crash_are_not_sent_again() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let r = replay(
+        slice,
+        "j",
+        &[
+            sent("D2", "end", &[], 1),
+            sent("GCS", "end", &[], 2),
+            Record::Acked {
+                to: "GCS".into(),
+                bridge: "end".into(),
+                colour: vec![],
+            },
+        ],
+    )
+    .unwrap();
+    assert_eq!(r.unacked.len(), 1);
+    assert_eq!(r.unacked[0].to, "D2");
+    assert_eq!(r.sent, 0, "notices are not bridge tokens");
+}
+
+#[test]
+fn an_action_started_and_not_finished_is_resumed_towards_its_journaled_target() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let (start, instance) = transition(slice, "start", "FlyByX");
+    let target = Some(Vec3::new(1.0, 0.0, 1.5));
+    let records = vec![
+        Record::Fired {
+            transition: start,
+            colour: vec![],
+        },
+        Record::Started(Started {
+            instance,
+            colour: vec![],
+            call: ActionCall::new("FlyByX", vec![1.0]),
+            target,
+            time: 9.0,
+        }),
+    ];
+    let r = replay(slice, "j", &records).unwrap();
+    assert_eq!(r.interrupted.len(), 1);
+    assert_eq!(r.interrupted[0].target, target);
+    assert_eq!(r.started, vec![(instance, vec![])]);
+    assert!(r.not_started.is_empty());
+
+    let mut finished = records.clone();
+    finished.push(Record::Finished {
+        instance,
+        colour: vec![],
+        error: None,
+    });
+    let r = replay(slice, "j", &finished).unwrap();
+    assert!(r.interrupted.is_empty());
+    assert!(r.succeeded.contains(&(instance, vec![])));
+
+    // Fired but never handed to the drone: started afresh.
+    let r = replay(slice, "j", &records[..1]).unwrap();
+    assert_eq!(r.not_started, vec![(instance, vec![])]);
+    assert!(r.interrupted.is_empty());
+}
+
+#[test]
+fn an_action_that_failed_before_the_crash_leaves_the_mission_failed() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let (start, instance) = transition(slice, "start", "Arm");
+    let r = replay(
+        slice,
+        "j",
+        &[
+            Record::Fired {
+                transition: start,
+                colour: vec![],
+            },
+            Record::Started(Started {
+                instance,
+                colour: vec![],
+                call: ActionCall::new("Arm", vec![]),
+                target: None,
+                time: 0.0,
+            }),
+            Record::Finished {
+                instance,
+                colour: vec![],
+                error: Some("refused".into()),
+            },
+        ],
+    )
+    .unwrap();
+    assert!(r.failed.as_deref().unwrap().contains("refused"));
+}
+
+#[test]
+fn a_journal_naming_a_transition_or_bridge_the_slice_lacks_is_refused() {
+    let s = slices("experiment_b.go");
+    let slice = s.get("Drone1").unwrap();
+    let err = replay(
+        slice,
+        "D1.journal",
+        &[Record::Fired {
+            transition: "no-such-transition".into(),
+            colour: vec![],
+        }],
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("no-such-transition"), "{err}");
+    let err = replay(
+        slice,
+        "D1.journal",
+        &[Record::Consumed {
+            from: "D2".into(),
+            bridge: "9999".into(),
+            colour: vec![],
+            seq: 1,
+        }],
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("9999"), "{err}");
+}
+
+#[test]
+fn an_airframe_record_reads_back_and_a_missing_one_is_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = airframe_path(dir.path(), "D1");
+    assert_eq!(read_airframe(&path).unwrap(), None);
+    let a = Airframe {
+        time: 4.25,
+        position: Vec3::new(1.0, 2.0, 3.0),
+        armed: true,
+        battery: 97.5,
+    };
+    write_airframe(&path, &a).unwrap();
+    assert_eq!(read_airframe(&path).unwrap(), Some(a));
+    std::fs::write(&path, "{ not json").unwrap();
+    assert!(read_airframe(&path).is_err());
+}
+
+// Replay of a real run.
+
+fn run_options(dir: &Path) -> crate::runner::RunOptions {
+    crate::runner::RunOptions {
+        speed: 200.0,
+        max_duration: Some(600.0),
+        out: dir.join("logs"),
+        journal: Some(dir.join("journal")),
+        linger: std::time::Duration::ZERO,
+        ..crate::runner::RunOptions::default()
+    }
+}
+
+fn action_starts(dir: &Path, peer: &str) -> usize {
+    crate::log::read_mission_log(&dir.join("logs").join(format!("{peer}.mission.jsonl")))
+        .map(|log| {
+            log.iter()
+                .filter(|r| matches!(r.event, crate::log::MissionEvent::ActionStarted { .. }))
+                .count()
+        })
+        .unwrap_or(0)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_resuming_runs_nothing_again(
+) {
+    let s = slices("experiment_b.go");
+    let dir = tempfile::tempdir().unwrap();
+    let options = run_options(dir.path());
+    let fleet = crate::fleet::Fleet::default();
+    let profiles = eamos_mid::profiles::builtin();
+    let report = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
+        .await
+        .unwrap();
+    assert!(report
+        .reports
+        .iter()
+        .all(|r| r.outcome == crate::Outcome::Completed));
+
+    let mut marked = Vec::new();
+    for slice in &s.slices {
+        let path = Journal::path(&dir.path().join("journal"), &slice.drone);
+        let opened = Journal::open(&path, &slice.mission_id, &slice.drone).unwrap();
+        let r = replay(slice, "j", &opened.records).unwrap();
+        assert!(r.completed, "{}", slice.drone);
+        assert!(r.interrupted.is_empty() && r.not_started.is_empty());
+        let report = report
+            .reports
+            .iter()
+            .find(|x| x.drone == slice.drone)
+            .unwrap();
+        assert_eq!(r.started, report.started_actions, "{}", slice.drone);
+        assert_eq!(r.actions, report.actions, "{}", slice.drone);
+        assert_eq!(r.sent, report.sent, "{}", slice.drone);
+        assert_eq!(r.received, report.received, "{}", slice.drone);
+        for (p, tokens) in r.marking.iter().enumerate() {
+            assert!(tokens.len() <= 1, "1-safe");
+            if !tokens.is_empty() {
+                marked.push((
+                    slice.final_place == Some(p as u32),
+                    slice.places[p].id.clone(),
+                ));
+            }
+        }
+    }
+    // The final marking of the net: the final places, and event states.
+    let file = eamos_lang::SourceFile::new(
+        "experiment_b.go",
+        std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../shared/missions/paper/experiment_b.go"),
+        )
+        .unwrap(),
+    );
+    let profiles = eamos_mid::profiles::builtin();
+    let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
+    let net = eamos_petri::compile(&m, &profiles);
+    assert!(marked.iter().any(|(is_final, _)| *is_final), "{marked:?}");
+    for (is_final, id) in &marked {
+        let event = net
+            .places()
+            .any(|(_, p)| &p.id == id && p.kind.is_event_state());
+        assert!(*is_final || event, "{id} is still marked");
+    }
+
+    // Started again with the same journals: nothing runs twice.
+    let before: Vec<usize> = s
+        .slices
+        .iter()
+        .map(|x| action_starts(dir.path(), &x.drone))
+        .collect();
+    let again = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
+        .await
+        .unwrap();
+    assert!(again
+        .reports
+        .iter()
+        .all(|r| r.outcome == crate::Outcome::Completed));
+    let after: Vec<usize> = s
+        .slices
+        .iter()
+        .map(|x| action_starts(dir.path(), &x.drone))
+        .collect();
+    assert_eq!(before, after);
+    assert!(before.iter().sum::<usize>() > 0);
+}
