@@ -56,8 +56,21 @@ fn sim_vehicle(port: u16, extra: &[&str]) -> Running {
 
 fn mavlink_entry(drone: &str, port: u16, home_y: f64) -> String {
     format!(
-        "[drones.{drone}]\nadapter = \"mavlink\"\nconnection = \"udpin:127.0.0.1:{port}\"\nhome = {{ x = 0.0, y = {home_y}, z = 0.0 }}\n\n"
+        "[drones.{drone}]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\nhome = {{ x = 0.0, y = {home_y}, z = 0.0 }}\n\n"
     )
+}
+
+/// The mission time the summary reports (`... after 12.3 s of mission time`).
+fn mission_time(stdout: &str) -> f64 {
+    let after = stdout
+        .split(" after ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no mission time in: {stdout}"));
+    after
+        .split(" s of mission time")
+        .next()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no mission time in: {stdout}"))
 }
 
 /// Runs `eamos run` to its end (bounded); returns exit code and stdout.
@@ -204,6 +217,21 @@ fn experiment_c_flies_hybrid_two_drones_over_mavlink_and_one_in_the_simulator() 
     // Drone3 flew in the simulator.
     let d3 = adapter_log(&out, "Drone3");
     assert!(!d3.is_empty() && d3.iter().all(|r| r["adapter"] == "sim"));
+
+    // The MAVLink drones log on the fleet's one mission clock, the
+    // simulator's (here five times the wall clock), not on the wall clock:
+    // their last records come late in the mission's time.
+    let total = mission_time(&stdout);
+    for drone in ["Drone1", "Drone2"] {
+        let last = adapter_log(&out, drone)
+            .iter()
+            .filter_map(|r| r["time"].as_f64())
+            .fold(0.0, f64::max);
+        assert!(
+            last > 0.6 * total,
+            "{drone}: last record at {last} s, the mission took {total} s of mission time"
+        );
+    }
 }
 
 #[test]
@@ -230,12 +258,121 @@ fn a_vehicle_that_refuses_to_arm_fails_the_mission_naming_command_result_and_rea
         stdout.starts_with("ExperimentA: did not complete"),
         "{stdout}"
     );
+    // The drone is named once, then the typed refusal in full.
     assert!(
         stdout.contains(
-            "the drone refused `Arm`: MAV_CMD_COMPONENT_ARM_DISARM was refused with MAV_RESULT_FAILED; the autopilot said: \"Arm: Hardware safety switch\""
+            "\nDrone1: the drone refused `Arm`: MAV_CMD_COMPONENT_ARM_DISARM was refused with MAV_RESULT_FAILED; the autopilot said: \"Arm: Hardware safety switch\"\n"
         ),
         "{stdout}"
     );
+    assert!(!stdout.contains("Drone1: Drone1:"), "{stdout}");
+    assert!(!stderr.contains("Drone1: Drone1:"), "{stderr}");
+}
+
+#[test]
+fn a_vehicle_that_never_gets_ready_fails_the_mission_in_bounded_time_naming_what_is_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p1 = free_udp_port();
+    let _v1 = sim_vehicle(p1, &["--ready-after", "100000", "--speed", "1"]);
+    let fleet = dir.path().join("fleet.toml");
+    // The fleet file sets how long arming waits for readiness.
+    std::fs::write(
+        &fleet,
+        format!(
+            "{}[drones.Drone1.mavlink]\nready_timeout = 4\n",
+            mavlink_entry("Drone1", p1, 0.0)
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let started = Instant::now();
+    let (code, stdout, stderr) = run_mission(&paper("experiment_a.go"), &fleet, &out, "1");
+    assert!(
+        started.elapsed() < Duration::from_secs(120),
+        "a 4 s readiness timeout ended the run only after {:?}",
+        started.elapsed()
+    );
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    assert!(
+        stdout.starts_with("ExperimentA: did not complete"),
+        "{stdout}"
+    );
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("Drone1: "))
+        .unwrap_or_else(|| panic!("no reason for Drone1: {stdout}"));
+    assert!(
+        line.starts_with(
+            "Drone1: `Arm` timed out waiting for the vehicle was not ready to arm after 4"
+        ),
+        "{line}"
+    );
+    for missing in [
+        "a 3D GPS fix (now: no fix, 0 satellites)",
+        "an EKF position estimate",
+        "pre-arm checks to pass (autopilot: \"PreArm: GPS 1: Bad fix\")",
+    ] {
+        assert!(line.contains(missing), "`{missing}` not in: {line}");
+    }
+    // The adapter log showed the wait as it went.
+    let log = adapter_log(&out, "Drone1");
+    assert!(log.iter().any(|r| r["detail"]
+        .as_str()
+        .is_some_and(|d| d.starts_with("not ready yet"))));
+}
+
+#[test]
+fn a_mission_flies_through_a_px4_vehicle_in_offboard() {
+    let dir = tempfile::tempdir().unwrap();
+    let p1 = free_udp_port();
+    let _v1 = sim_vehicle(
+        p1,
+        &["--autopilot", "px4", "--ready-after", "4", "--speed", "1"],
+    );
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(&fleet, mavlink_entry("Drone1", p1, 0.0)).unwrap();
+    let out = dir.path().join("out");
+    let (code, stdout, stderr) = run_mission(&paper("experiment_a.go"), &fleet, &out, "1");
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("ExperimentA: completed"), "{stdout}");
+    let log = adapter_log(&out, "Drone1");
+    assert!(
+        log.iter().any(|r| r["detail"]
+            .as_str()
+            .is_some_and(|d| d.starts_with("found PX4 vehicle"))),
+        "{log:?}"
+    );
+    assert!(
+        log.iter()
+            .any(|r| r["detail"] == "mode OFFBOARD set and confirmed"),
+        "{log:?}"
+    );
+    // No take-off command: PX4 climbs to a setpoint above the ground.
+    assert!(!log.iter().any(|r| r["detail"] == "MAV_CMD_NAV_TAKEOFF"));
+    let sent = targets(&log);
+    let square = [
+        [0.0, 0.0, 1.5],
+        [1.0, 0.0, 1.5],
+        [1.0, 1.0, 1.5],
+        [0.0, 1.0, 1.5],
+        [0.0, 0.0, 1.5],
+    ];
+    // The take-off setpoint, then the square.
+    assert!(sent.len() >= square.len(), "{sent:?}");
+    for (got, want) in sent[sent.len() - square.len()..].iter().zip(square) {
+        let d = (0..3)
+            .map(|i| (got[i] - want[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(d < 0.1, "target {got:?}, expected {want:?}");
+    }
+    let completed: Vec<&str> = log
+        .iter()
+        .filter(|r| r["event"] == "completed")
+        .map(|r| r["outcome"].as_str().unwrap())
+        .collect();
+    assert_eq!(completed, vec!["ok"; 8], "{log:?}");
+    assert!(log.iter().any(|r| r["detail"] == "disarmed"));
 }
 
 #[test]

@@ -867,7 +867,8 @@ impl Executor {
             Err(_) if cancelled_by_us => {}
             Err(e) => {
                 self.running.remove(&key);
-                let reason = format!("{}: {e}", self.me());
+                // The report is the drone's own: whoever prints it names it.
+                let reason = e.to_string();
                 let me = self.me().to_string();
                 for p in self.options.peers.iter().filter(|p| **p != me) {
                     self.bridges.send(p, ABORT, Vec::new());

@@ -28,9 +28,18 @@
 //!
 //! [drones.D4]
 //! adapter = "mavlink"
-//! connection = "udpin:0.0.0.0:14550"
-//! listen = ["tcp/192.168.1.14:7447"]
+//! connect = "udpin:0.0.0.0:14550"     # MAVLink, as MAVLink tools spell it
+//! zenoh = { listen = ["tcp/192.168.1.14:7447"] }
+//!
+//! [drones.D4.mavlink]                 # adapter settings, all optional
+//! ready_timeout = 180
 //! ```
+//!
+//! A drone's `connect` is its MAVLink connection (the older spelling
+//! `connection` is accepted too); its zenoh endpoints, like the ground
+//! station's, are `listen` and `connect` lists, given in the drone's
+//! `zenoh` table.
+//!
 //!
 //! A drone the file does not name is simulated, at a home of its own (see
 //! [`default_home`]). A peer without `listen` endpoints listens on a
@@ -43,6 +52,7 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use eamos_mid::mavlink::{ConnectAddress, MavlinkSettings};
 use eamos_mid::sim::kinematics::MultirotorConfig;
 use eamos_mid::sim::script::Script;
 use eamos_mid::sim::{SimConfig, SimDroneSpec};
@@ -126,13 +136,52 @@ pub struct DroneEntry {
     /// A scripted pilot (sim only).
     #[serde(default)]
     pub script: Option<Script>,
-    /// MAVLink connection (`udpin:0.0.0.0:14550`, `tcpout:...`, serial).
+    /// MAVLink connection (`udpin:0.0.0.0:14550`, `tcpout:...`, serial),
+    /// checked when the file is read.
+    #[serde(default, alias = "connection", deserialize_with = "mavlink_connection")]
+    pub connect: Option<String>,
+    /// The MAVLink adapter's settings (MAVLink only).
+    #[serde(default, deserialize_with = "MavlinkSettings::deserialize_checked")]
+    pub mavlink: Option<MavlinkSettings>,
+    /// How the drone's agent joins zenoh.
     #[serde(default)]
-    pub connection: Option<String>,
-    #[serde(default)]
-    pub listen: Vec<String>,
-    #[serde(default)]
-    pub connect: Vec<String>,
+    pub zenoh: PeerNet,
+    /// Zenoh endpoints given where they used to be: refused with a pointer
+    /// to the `zenoh` table.
+    #[serde(default, rename = "listen", deserialize_with = "moved_to_zenoh")]
+    moved_listen: Option<()>,
+}
+
+/// A drone's `connect` is a MAVLink connection string; a list is the old
+/// place of its zenoh endpoints.
+fn mavlink_connection<'de, D>(deserializer: D) -> Result<Option<String>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    use serde::de::Error;
+    match toml::Value::deserialize(deserializer)? {
+        toml::Value::String(s) => match ConnectAddress::parse(&s) {
+            Ok(_) => Ok(Some(s)),
+            Err(e) => Err(D::Error::custom(e)),
+        },
+        toml::Value::Array(_) => Err(D::Error::custom(
+            "a drone's `connect` is its MAVLink connection (\"udpin:0.0.0.0:14550\"); zenoh endpoints go in its zenoh table: `zenoh = { connect = [...] }`",
+        )),
+        other => Err(D::Error::custom(format!(
+            "`connect` must be a MAVLink connection string such as \"udpin:0.0.0.0:14550\", not a {}",
+            other.type_str()
+        ))),
+    }
+}
+
+fn moved_to_zenoh<'de, D>(deserializer: D) -> Result<Option<()>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let _ = toml::Value::deserialize(deserializer)?;
+    Err(serde::de::Error::custom(
+        "a drone's zenoh endpoints go in its zenoh table: `zenoh = { listen = [...] }`",
+    ))
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -188,15 +237,15 @@ impl Fleet {
                 });
             }
             let problem = |p: &str| FleetError::Drone {
-                path: name.to_string(),
+                path: drone_location(text, name, drone),
                 drone: drone.clone(),
                 problem: p.to_string(),
             };
             match entry.adapter {
                 AdapterKind::Mavlink => {
-                    if entry.connection.is_none() {
+                    if entry.connect.is_none() {
                         return Err(problem(
-                            "a MAVLink drone needs `connection` (for example \"udpin:0.0.0.0:14550\")",
+                            "a MAVLink drone needs `connect`, its MAVLink connection (for example \"udpin:0.0.0.0:14550\")",
                         ));
                     }
                     if entry.script.is_some() || entry.vehicle.is_some() {
@@ -206,9 +255,9 @@ impl Fleet {
                     }
                 }
                 AdapterKind::Sim => {
-                    if entry.connection.is_some() {
+                    if entry.connect.is_some() || entry.mavlink.is_some() {
                         return Err(problem(
-                            "`connection` is for MAVLink drones; add `adapter = \"mavlink\"`",
+                            "`connect` and `mavlink` are for MAVLink drones; add `adapter = \"mavlink\"` (zenoh endpoints go in `zenoh = { connect = [...] }`)",
                         ));
                     }
                 }
@@ -260,7 +309,7 @@ impl Fleet {
         let given = if peer == GCS {
             self.gcs.listen.clone()
         } else {
-            self.entry(peer).listen
+            self.entry(peer).zenoh.listen
         };
         if !given.is_empty() {
             return given;
@@ -275,7 +324,7 @@ impl Fleet {
         let connect_given = if peer == GCS {
             self.gcs.connect.clone()
         } else {
-            self.entry(peer).connect
+            self.entry(peer).zenoh.connect
         };
         let connect = if connect_given.is_empty() {
             peers
@@ -292,6 +341,26 @@ impl Fleet {
             scouting: self.zenoh.scouting,
         }
     }
+}
+
+/// `file:line:column` of a drone's table, for errors found after parsing
+/// (just the file if the table cannot be found again).
+fn drone_location(text: &str, name: &str, drone: &str) -> String {
+    #[derive(Deserialize)]
+    struct Spans {
+        #[serde(default)]
+        drones: BTreeMap<String, toml::Spanned<toml::Value>>,
+    }
+    let Some(start) = toml::from_str::<Spans>(text)
+        .ok()
+        .and_then(|s| s.drones.get(drone).map(|v| v.span().start))
+    else {
+        return name.to_string();
+    };
+    let before = &text[..start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+    format!("{name}:{line}:{column}")
 }
 
 /// Where a drone the fleet file does not place starts: the drones of a
@@ -339,11 +408,11 @@ home = { x = 1.0, y = 2.0, z = 0.0 }
 
 [drones.D3]
 script = { start_after = 1.0, legs = [{ leg = "hold", seconds = 2.0 }] }
-listen = ["tcp/127.0.0.1:9003"]
+zenoh = { listen = ["tcp/127.0.0.1:9003"] }
 
 [drones.D2]
 adapter = "mavlink"
-connection = "udpin:0.0.0.0:14550"
+connect = "udpin:0.0.0.0:14550"
 "#,
             "fleet.toml",
             "M",
@@ -383,27 +452,134 @@ connection = "udpin:0.0.0.0:14550"
     }
 
     #[test]
-    fn a_mavlink_drone_without_a_connection_is_refused() {
+    fn a_mavlink_drone_without_a_connection_is_refused_at_its_table() {
         let e = Fleet::parse(
-            "[drones.D1]\nadapter = \"mavlink\"\n",
+            "[drones.D2]\nhome = { x = 0.0, y = 0.0, z = 0.0 }\n\n[drones.D1]\nadapter = \"mavlink\"\n",
             "f.toml",
             "M",
             &drones(),
         )
         .unwrap_err();
-        assert!(e.to_string().contains("connection"), "{e}");
+        let msg = e.to_string();
+        assert!(msg.starts_with("f.toml:4:1: drone `D1`"), "{msg}");
+        assert!(msg.contains("needs `connect`"), "{msg}");
     }
 
     #[test]
-    fn a_simulated_drone_with_a_connection_is_refused() {
+    fn a_simulated_drone_with_a_mavlink_connection_or_settings_is_refused() {
+        for text in [
+            "[drones.D1]\nconnect = \"udpin:0.0.0.0:1\"\n",
+            "[drones.D1]\nmavlink = { ready_timeout = 10 }\n",
+        ] {
+            let e = Fleet::parse(text, "f.toml", "M", &drones()).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.starts_with("f.toml:1:1: drone `D1`"), "{msg}");
+            assert!(msg.contains("add `adapter = \"mavlink\"`"), "{msg}");
+        }
+    }
+
+    #[test]
+    fn a_mavlink_drone_is_connected_as_mavlink_tools_spell_it_and_zenoh_has_its_own_table() {
+        let f = Fleet::parse(
+            r#"
+[drones.D1]
+adapter = "mavlink"
+connect = "udpin:0.0.0.0:14550"
+zenoh = { listen = ["tcp/127.0.0.1:9001"], connect = ["tcp/127.0.0.1:9000"] }
+
+[drones.D1.mavlink]
+ready_timeout = 30
+ack_timeout = 0.5
+command_attempts = 5
+
+[drones.D2]
+adapter = "mavlink"
+connection = "/dev/ttyUSB0:57600"
+"#,
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap();
+        let d1 = f.entry("D1");
+        assert_eq!(d1.connect.as_deref(), Some("udpin:0.0.0.0:14550"));
+        let settings = d1.mavlink.expect("the mavlink table is read");
+        assert_eq!(settings.ready_timeout, Some(30.0));
+        assert_eq!(settings.command_attempts, Some(5));
+        // `connection` is the older spelling of the same key.
+        assert_eq!(f.entry("D2").connect.as_deref(), Some("/dev/ttyUSB0:57600"));
+        let peers: Vec<String> = ["GCS", "D1", "D2"].map(String::from).to_vec();
+        let z = f.zenoh_options("abc", &peers, "D1");
+        assert_eq!(z.listen, vec!["tcp/127.0.0.1:9001"]);
+        assert_eq!(z.connect, vec!["tcp/127.0.0.1:9000"]);
+    }
+
+    #[test]
+    fn a_bad_mavlink_connection_or_setting_is_reported_at_its_line_and_column() {
         let e = Fleet::parse(
-            "[drones.D1]\nconnection = \"udpin:0.0.0.0:1\"\n",
+            "[drones.D1]\nadapter = \"mavlink\"\nconnect = \"udpin:0.0.0.0\"\n",
             "f.toml",
             "M",
             &drones(),
         )
         .unwrap_err();
-        assert!(e.to_string().contains("mavlink"), "{e}");
+        let msg = e.to_string();
+        assert!(
+            msg.contains("f.toml") && msg.contains("line 3, column 11"),
+            "{msg}"
+        );
+        assert!(msg.contains("is not a MAVLink connection"), "{msg}");
+
+        let e = Fleet::parse(
+            "[drones.D1]\nadapter = \"mavlink\"\nconnect = \"udpin:0.0.0.0:14550\"\n\n[drones.D1.mavlink]\nlink_timeout = -2\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("line 5"), "{msg}");
+        assert!(
+            msg.contains("`link_timeout` must be a positive number"),
+            "{msg}"
+        );
+
+        let e = Fleet::parse(
+            "[drones.D1]\nadapter = \"mavlink\"\nconnect = \"udpin:0.0.0.0:14550\"\nmavlink = { ready_timeot = 3 }\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains("line 4") && msg.contains("ready_timeot"),
+            "{msg}"
+        );
+    }
+
+    #[test]
+    fn zenoh_endpoints_where_they_used_to_be_point_to_the_zenoh_table() {
+        let e = Fleet::parse(
+            "[drones.D1]\nconnect = [\"tcp/127.0.0.1:9001\"]\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("line 2"), "{msg}");
+        assert!(msg.contains("`zenoh = { connect = [...] }`"), "{msg}");
+        let e = Fleet::parse(
+            "[drones.D1]\nlisten = [\"tcp/127.0.0.1:9001\"]\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("line 2"), "{msg}");
+        assert!(msg.contains("`zenoh = { listen = [...] }`"), "{msg}");
     }
 
     #[test]

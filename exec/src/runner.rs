@@ -196,22 +196,25 @@ async fn build_adapters(
                 Arc::new(drone)
             }
             AdapterKind::Mavlink => {
-                let connection = entry.connection.clone().unwrap_or_default();
+                let connection = entry.connect.clone().unwrap_or_default();
+                // The fleet's one mission clock, so that a MAVLink drone's
+                // log and telemetry share the time line of the others.
+                let mut mavlink = MavlinkOptions {
+                    home: fleet.home(d, index),
+                    log: log.clone(),
+                    clock: Some(clock.clone()),
+                    ..MavlinkOptions::default()
+                };
+                if let Some(settings) = &entry.mavlink {
+                    settings.apply(&mut mavlink);
+                }
                 Arc::new(
-                    MavlinkAdapter::connect(
-                        d.clone(),
-                        &connection,
-                        MavlinkOptions {
-                            home: fleet.home(d, index),
-                            log: log.clone(),
-                            ..MavlinkOptions::default()
-                        },
-                    )
-                    .await
-                    .map_err(|e| RunError::Adapter {
-                        drone: d.clone(),
-                        error: e.to_string(),
-                    })?,
+                    MavlinkAdapter::connect(d.clone(), &connection, mavlink)
+                        .await
+                        .map_err(|e| RunError::Adapter {
+                            drone: d.clone(),
+                            error: e.to_string(),
+                        })?,
                 )
             }
         };

@@ -1,6 +1,7 @@
 //! `eamos sim-vehicle`: a simulated copter behind a MAVLink 2 endpoint that
-//! behaves like an ArduPilot copter (see `eamos_mid::mavlink::vehicle`),
-//! for trying a fleet file, a ground station or a script without SITL.
+//! behaves like an ArduPilot copter, or with `--autopilot px4` like PX4
+//! (see `eamos_mid::mavlink::vehicle`), for trying a fleet file, a ground
+//! station or a script without SITL.
 //!
 //! By default it talks like SITL started with `--out`: from a port of its
 //! own to a ground station listening on `udpin:127.0.0.1:14550`. It runs
@@ -12,11 +13,27 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use eamos_mid::mavlink::frame::Geodetic;
-use eamos_mid::mavlink::{ConnectAddress, SimVehicle, SimVehicleOptions};
+use eamos_mid::mavlink::{ConnectAddress, Firmware, SimVehicle, SimVehicleOptions};
 
-/// Fly a simulated copter over MAVLink, like an ArduPilot SITL copter.
+/// Whose behaviour the vehicle imitates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Autopilot {
+    /// An ArduPilot copter: GUIDED, streams only when asked.
+    Ardupilot,
+    /// PX4: OFFBOARD only with a setpoint stream, left when it stops.
+    Px4,
+}
+
+/// Fly a simulated copter over MAVLink, like an ArduPilot or PX4 SITL copter.
 #[derive(clap::Args)]
 pub struct Args {
+    /// The autopilot it behaves like.
+    #[arg(long, value_enum, default_value_t = Autopilot::Ardupilot)]
+    pub autopilot: Autopilot,
+    /// PX4: simulated seconds without an OFFBOARD setpoint after which
+    /// OFFBOARD is refused, or left for AUTO.LOITER (PX4's COM_OF_LOSS_T).
+    #[arg(long, value_name = "SECONDS", default_value_t = 1.0)]
+    pub offboard_loss_after: f64,
     /// Where it talks: `udpout:HOST:PORT` (to a listening ground station,
     /// like SITL's `--out`), `udpin:HOST:PORT` or `tcpin:HOST:PORT` (it
     /// listens, like SITL's `tcp:5760`).
@@ -94,6 +111,11 @@ pub fn run(args: Args) -> ExitCode {
         rc_mode_switch_at: args.rc_mode_switch_at,
         refuse_arming: args.refuse_arming,
         idle_disarm_after: args.idle_disarm_after,
+        autopilot: match args.autopilot {
+            Autopilot::Ardupilot => Firmware::ArduPilot,
+            Autopilot::Px4 => Firmware::Px4,
+        },
+        offboard_loss_after: args.offboard_loss_after,
         ..SimVehicleOptions::default()
     };
     if let Err(e) = options.validate() {
@@ -117,7 +139,8 @@ pub fn run(args: Args) -> ExitCode {
     };
     runtime.block_on(async move {
         let description = format!(
-            "system {} on {} at {}x real time, ready after {} s, home {:.7},{:.7},{}",
+            "{:?} system {} on {} at {}x real time, ready after {} s, home {:.7},{:.7},{}",
+            options.autopilot,
             options.system_id,
             options.connect,
             options.speed,

@@ -281,7 +281,8 @@ impl MavlinkSettings {
 pub enum MavlinkError {
     #[error(transparent)]
     Address(#[from] AddressError),
-    #[error("{drone}: could not open {address}: {source}")]
+    /// Says nothing of the drone: whoever reports it names the drone.
+    #[error("could not open {address}: {source}")]
     Open {
         drone: String,
         address: String,
