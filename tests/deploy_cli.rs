@@ -384,3 +384,48 @@ fn an_unsigned_or_misdirected_start_command_is_refused() {
     );
     assert!(!said.contains("started mission"), "{said}");
 }
+
+#[test]
+fn keygen_never_overwrites_an_existing_key() {
+    let rig = Rig::new(true, "");
+    let before = std::fs::read(rig.path("gcs.key")).unwrap();
+    let out = Command::cargo_bin("eamos")
+        .unwrap()
+        .args(["keygen", "--out"])
+        .arg(rig.dir.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("gcs.key"), "{err}");
+    assert_eq!(std::fs::read(rig.path("gcs.key")).unwrap(), before);
+}
+
+#[test]
+fn deploying_with_a_key_the_fleet_does_not_trust_is_bad_input_before_anything_is_sent() {
+    let rig = Rig::new(true, "");
+    let made = Command::cargo_bin("eamos")
+        .unwrap()
+        .args(["keygen", "--name", "other", "--out"])
+        .arg(rig.dir.path())
+        .output()
+        .unwrap();
+    assert!(made.status.success());
+    let other = rig.path("other.key");
+    let out = rig.deploy(
+        &paper("experiment_b.go"),
+        &["--key", other.to_str().unwrap()],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("other.key") && err.contains("the fleet file trusts"),
+        "{err}"
+    );
+    // Without the secret key beside the fleet's public key, likewise.
+    std::fs::remove_file(rig.path("gcs.key")).unwrap();
+    let out = rig.deploy(&paper("experiment_b.go"), &[]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("gcs.key"), "{err}");
+}
