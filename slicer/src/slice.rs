@@ -20,7 +20,8 @@
 
 use std::collections::BTreeSet;
 
-use eamos_petri::net::{ColourOp, Place, PlaceKind, Transition};
+use eamos_lang::hir::Expr;
+use eamos_petri::net::{ColourOp, GuardKind, Place, PlaceKind, Transition};
 use serde::{Deserialize, Serialize};
 
 use crate::error::DecodeError;
@@ -235,6 +236,47 @@ impl Slice {
         if self.drone != GCS && !self.drones.contains(&self.drone) {
             return bad(format!("`{}` is not a drone of the mission", self.drone));
         }
+        // Numbers fly drones: the compiler folds only finite constants, so
+        // a NaN or an infinity in an argument, a delay or a condition is
+        // damage, never a mission (found by the `slice_binary` fuzz target).
+        for p in &self.places {
+            if let PlaceKind::Running(a) = &p.kind {
+                if !a.args.iter().all(|x| x.is_finite()) {
+                    return bad(format!(
+                        "place `{}` runs {} with an argument that is not a finite number",
+                        p.id, a.name
+                    ));
+                }
+            }
+        }
+        for t in &self.transitions {
+            let t = &t.transition;
+            let args = t
+                .kind
+                .action()
+                .is_none_or(|a| a.args.iter().all(|x| x.is_finite()));
+            let delay = t.delay.is_none_or(f64::is_finite);
+            let guard = t.guard.as_ref().is_none_or(|g| match &g.kind {
+                GuardKind::Cond { cond, .. } => finite(cond),
+                _ => true,
+            });
+            if !(args && delay && guard) {
+                return bad(format!(
+                    "transition `{}` has a number that is not finite",
+                    t.id
+                ));
+            }
+        }
         Ok(())
+    }
+}
+
+/// Every number of a condition is finite.
+fn finite(e: &Expr) -> bool {
+    match e {
+        Expr::Number { value, .. } => value.is_finite(),
+        Expr::Unary { operand, .. } => finite(operand),
+        Expr::Binary { lhs, rhs, .. } => finite(lhs) && finite(rhs),
+        Expr::Bool { .. } | Expr::Property { .. } => true,
     }
 }
