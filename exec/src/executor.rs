@@ -15,8 +15,9 @@
 //! skips the action) cancels it. An action instance is started at most once
 //! per colour, whatever the net or the network does.
 //!
-//! Two control messages travel besides the slice's bridges: `end`, sent by
-//! the slice that marks the final place to every other peer, and `abort`,
+//! Two control messages travel besides the slice's bridges: `end`, sent to
+//! every other peer by each slice that marks its end of the mission (the
+//! mission has ended once every slice listed in `Slice::ends` has), and `abort`,
 //! sent by a drone whose action failed. Both are delivered exactly once like
 //! any token.
 
@@ -204,6 +205,9 @@ pub struct Executor {
     sent: u64,
     received: u64,
     ended: Option<Outcome>,
+    /// Owners of the slice's `ends` that have reached their end (this one
+    /// when its final place is marked, the others by their `end` notice).
+    ends_reached: HashSet<String>,
     first_firing: Option<f64>,
 }
 
@@ -271,6 +275,7 @@ impl Executor {
             sent: 0,
             received: 0,
             ended: None,
+            ends_reached: HashSet::new(),
             first_firing: None,
         };
         executor.recover();
@@ -772,16 +777,31 @@ impl Executor {
             _ => {}
         }
         if let Some(f) = self.slice.final_place {
-            if !self.marking[f as usize].is_empty() && self.ended.is_none() {
-                self.note(MissionEvent::MissionEnded {
-                    by: self.me().to_string(),
-                });
-                let me = self.me().to_string();
+            let me = self.me().to_string();
+            if !self.marking[f as usize].is_empty() && !self.ends_reached.contains(&me) {
                 for p in self.options.peers.iter().filter(|p| **p != me) {
                     self.bridges.send(p, END, Vec::new());
                 }
-                self.ended = Some(Outcome::Completed);
+                self.end_reached(me);
             }
+        }
+    }
+
+    /// The mission has ended when every owner holding an end has reached
+    /// it: the slicer spreads the mission's last join over the drones that
+    /// take part in it, so no token has to travel to say "I am done". Until
+    /// then the slice plays on (a drone may have ended its part and still
+    /// have tokens to pass on).
+    fn end_reached(&mut self, by: String) {
+        self.ends_reached.insert(by.clone());
+        let all = self
+            .slice
+            .ends
+            .iter()
+            .all(|o| self.ends_reached.contains(o));
+        if all && self.ended.is_none() {
+            self.note(MissionEvent::MissionEnded { by });
+            self.ended = Some(Outcome::Completed);
         }
     }
 
@@ -881,8 +901,7 @@ impl Executor {
     fn on_delivered(&mut self, d: Delivered) {
         match d.bridge.as_str() {
             END => {
-                self.note(MissionEvent::MissionEnded { by: d.from });
-                self.ended = Some(Outcome::Completed);
+                self.end_reached(d.from);
                 return;
             }
             ABORT => {

@@ -3,10 +3,9 @@
 //!
 //! # The argument
 //!
-//! Take the mission's *events*: the ground station's start, the start and
-//! the end of every action (each on its drone), and the end of the mission
-//! (on whichever owner holds `final`). SEQ/PAR nesting, and `Signal`/`Await`,
-//! order them: a partial order `<`. Keep its covering pairs `a ⋖ b` whose
+//! Take the mission's *events*: the ground station's start and the start and
+//! the end of every action (each on its drone). SEQ/PAR nesting, and
+//! `Signal`/`Await`, order them: a partial order `<`. Keep its covering pairs `a ⋖ b` whose
 //! events happen on different owners `X = loc(a)`, `Y = loc(b)`: cross
 //! edges.
 //!
@@ -26,10 +25,19 @@
 //!
 //! So a set of demands no two of which one message could serve needs as many
 //! messages. The bound is the largest such set (a maximum clique of the
-//! "cannot share" graph, computed exactly), minimised over where `final`
-//! lives. In a mission without loops or conditions every bridge carries at
-//! most one message per run and every run does everything, so it bounds the
-//! bridges too.
+//! "cannot share" graph, computed exactly). In a mission without loops or
+//! conditions every bridge carries at most one message per run and every run
+//! does everything, so it bounds the bridges too.
+//!
+//! The mission's end is not an event here. The slicer ends a mission where
+//! its drones are (each owner holding part of the last join reaches an end
+//! of its own, see the crate docs), and the news that every owner has ended
+//! travels as a control notice, not as a bridge: it carries no token of the
+//! net. So "every action ends before the mission does" costs no bridge, and
+//! an order with the end in it would count demands no slicing pays. (Were
+//! the end an event on one owner, as the paper's `final` node of the MDG,
+//! the bound would be higher by up to one message per other drone that
+//! ends the mission.)
 //!
 //! Relays are allowed by the argument (a chain may pass through a drone that
 //! has nothing to do with the edge): that is why it counts demands per hop
@@ -133,13 +141,6 @@ impl Builder {
 /// The lower bound on bridges for a mission, or `None` where it is not
 /// defined (see the module docs).
 pub fn lower_bound(mission: &Mission) -> Option<usize> {
-    let owners = mission.drones.len() + 1;
-    (0..owners)
-        .map(|final_loc| bound_with_final(mission, final_loc))
-        .try_fold(usize::MAX, |best, b| b.map(|b| best.min(b)))
-}
-
-fn bound_with_final(mission: &Mission, final_loc: Loc) -> Option<usize> {
     let mut b = Builder {
         order: Order {
             loc: Vec::new(),
@@ -149,8 +150,7 @@ fn bound_with_final(mission: &Mission, final_loc: Loc) -> Option<usize> {
         awaits: Vec::new(),
     };
     let init = b.order.node(Some(0));
-    let last = b.block(&mission.root, vec![init])?;
-    b.order.after(&last, Some(final_loc));
+    b.block(&mission.root, vec![init])?;
     for (event, a) in std::mem::take(&mut b.awaits) {
         match b.signals.get(&event).map(Vec::as_slice) {
             Some(&[s]) => b.order.edges.push((s, a)),

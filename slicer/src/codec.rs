@@ -13,7 +13,7 @@
 //! The checksum makes a damaged file an error rather than a different
 //! mission: postcard alone would decode many altered payloads into another,
 //! well-formed slice. The JSON form wraps the slice in
-//! `{"format": "eamos-slice", "version": 1, "slice": {...}}` and is checked
+//! `{"format": "eamos-slice", "version": 2, "slice": {...}}` and is checked
 //! for consistency ([`Slice::validate`]) when read; it carries no checksum so
 //! that a person can read and diff it.
 
@@ -25,7 +25,7 @@ use crate::slice::Slice;
 
 pub const MAGIC: &[u8; 8] = b"EAMOSSLC";
 /// Bumped whenever the slice type changes shape.
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 const FORMAT_NAME: &str = "eamos-slice";
 const HEADER: usize = 8 + 2 + 4;
 const DIGEST: usize = 32;

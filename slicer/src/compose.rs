@@ -1,8 +1,10 @@
 //! The slices of a mission put back together as one net, with every bridge
 //! an asynchronous channel: the sending transition puts a token into a
 //! channel place, a separate *deliver* transition moves it to the inbox
-//! later. This is the net the drones play together over a network that
-//! delays messages arbitrarily; [`crate::equivalence`] compares it with the
+//! later. The slices' ends (one per owner that holds one) are joined into
+//! one place `final` by a transition no drone runs: the mission has ended
+//! when every slice has reached its end. This is the net the drones play
+//! together over a network that delays messages arbitrarily; [`crate::equivalence`] compares it with the
 //! mission net.
 
 use std::collections::BTreeMap;
@@ -27,8 +29,8 @@ pub enum ComposeError {
     Unsent { id: u32, from: String, to: String },
     #[error("the slices hold {0} initial places, one is needed")]
     Initial(usize),
-    #[error("the slices hold {0} final places, one is needed")]
-    Final(usize),
+    #[error("the slices hold no end of the mission")]
+    NoEnd,
 }
 
 /// One net from all slices of a mission, bridges as channels.
@@ -168,9 +170,36 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
     if initials.len() != 1 {
         return Err(ComposeError::Initial(initials.len()));
     }
-    if finals.len() != 1 {
-        return Err(ComposeError::Final(finals.len()));
-    }
+    let final_place = match finals.as_slice() {
+        [] => return Err(ComposeError::NoEnd),
+        [one] => *one,
+        ends => {
+            // The mission has ended when every slice has reached its end:
+            // a join that no drone runs.
+            let done = graph.add_node(Node::Place(Place {
+                id: "final".into(),
+                label: "every slice has ended".into(),
+                kind: PlaceKind::Final,
+                owner: Owner::Unassigned,
+                span: None,
+                depth: 0,
+            }));
+            let join = graph.add_node(Node::Transition(Transition {
+                id: "finish".into(),
+                label: "every slice has ended".into(),
+                kind: TransitionKind::Finish,
+                owner: Owner::Unassigned,
+                span: Default::default(),
+                guard: None,
+                delay: None,
+            }));
+            for &end in ends {
+                graph.add_edge(end, join, arc(ArcKind::Consume, ColourOp::Keep));
+            }
+            graph.add_edge(join, done, arc(ArcKind::Produce, ColourOp::Keep));
+            done
+        }
+    };
     Ok(Net {
         name: first.mission.clone(),
         graph,
@@ -178,6 +207,6 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
         profiles: Vec::new(),
         initial_marking,
         initial_place: initials[0],
-        final_place: finals[0],
+        final_place,
     })
 }

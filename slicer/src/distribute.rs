@@ -1,7 +1,8 @@
 //! From an assignment to slices: apply the bundles to the net (new fan-out,
 //! pre-join and forward nodes), then cut the result along owners.
 
-use std::collections::BTreeSet;
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet};
 
 use eamos_lang::hir::DroneId;
 use eamos_petri::net::{
@@ -13,6 +14,7 @@ use petgraph::Direction;
 use serde::{Deserialize, Serialize};
 use sha3::{Digest, Sha3_256};
 
+use crate::end::End;
 use crate::error::SliceError;
 use crate::partition::{assign, node_id, plan_bundles, Bundle, Facts, Units};
 use crate::slice::{BridgeIn, BridgeOut, Produce, Slice, SliceTransition, GCS};
@@ -53,7 +55,8 @@ pub(crate) fn owner_name(net: &Net, o: Owner) -> String {
 /// A hash of the mission's net: two slices belong to one mission exactly
 /// when their identities are equal.
 pub fn mission_id(net: &Net) -> String {
-    let bytes = serde_json::to_vec(net).expect("a net always serialises");
+    // The compact form: hashing costs what the bytes cost.
+    let bytes = postcard::to_allocvec(net).expect("a net always serialises");
     let digest = Sha3_256::digest(&bytes);
     digest.iter().map(|b| format!("{b:02x}")).collect()
 }
@@ -80,17 +83,25 @@ pub fn slice(net: &Net) -> Result<Slices, SliceError> {
             }
         }
     }
-    let units = Units::of(net)?;
-    let facts = Facts::of(net);
+    // The end tree is nobody's (see `end.rs`): partition the net without
+    // its arcs, so that its inputs stay wherever their producers are.
+    let end = End::of(net);
+    let work = match &end {
+        Some(end) => Cow::Owned(without(net, &end.region)),
+        None => Cow::Borrowed(net),
+    };
+    let units = Units::of(&work)?;
+    let facts = Facts::of(&work);
     let owners: Vec<Owner> = std::iter::once(Owner::Gcs)
         .chain((0..net.drones.len()).map(|d| Owner::Drone(DroneId(d as u16))))
         .collect();
-    let assignment = assign(net, &units, &facts, &owners);
+    let assignment = assign(&work, &units, &facts, &owners);
     let owner = assignment.node_owners(&units);
-    let bundles = plan_bundles(net, &facts, &owner);
-    let distributed = apply_bundles(net, &owner, &bundles);
+    let bundles = plan_bundles(&work, &facts, &owner);
+    let distributed = apply_bundles(&work, &owner, &bundles, end.as_ref());
     let id = mission_id(net);
-    let slices = owners.iter().map(|&o| cut(&distributed, o, &id)).collect();
+    let ends = end_owners(&distributed);
+    let slices = cut_all(&distributed, &owners, &id, &ends);
     Ok(Slices {
         mission: net.name.clone(),
         mission_id: id,
@@ -107,18 +118,52 @@ fn max_input_depth(net: &Net, t: NodeId) -> u8 {
         .unwrap_or(0)
 }
 
-/// Rewrites the net so that every bundle becomes one crossing arc.
-fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
+/// The net without the arcs that touch `region`.
+fn without(net: &Net, region: &[bool]) -> Net {
+    let graph = net.graph.filter_map(
+        |_, n| Some(n.clone()),
+        |e, a| {
+            let (s, t) = net.graph.edge_endpoints(e)?;
+            (!region[s.index()] && !region[t.index()]).then_some(*a)
+        },
+    );
+    Net {
+        name: net.name.clone(),
+        graph,
+        drones: net.drones.clone(),
+        profiles: net.profiles.clone(),
+        initial_marking: net.initial_marking.clone(),
+        initial_place: net.initial_place,
+        final_place: net.final_place,
+    }
+}
+
+/// Rewrites the net so that every bundle becomes one crossing arc, and the
+/// end tree (if any) becomes one end per owner joined by a transition that
+/// belongs to no one (see `end.rs`).
+fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&End>) -> Net {
     let mut graph: DiGraph<Node, Arc> =
         DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
+    // New index of every node of `net`; the end tree's inner nodes go.
+    let mut map: Vec<Option<NodeId>> = vec![None; net.graph.node_count()];
     for v in net.graph.node_indices() {
+        let virtual_end = end.is_some_and(|e| v == e.finish || v == net.final_place);
+        if end.is_some_and(|e| e.region[v.index()]) && !virtual_end {
+            continue;
+        }
+        let o = if virtual_end {
+            Owner::Unassigned
+        } else {
+            owner[v.index()]
+        };
         let mut node = net.graph[v].clone();
         match &mut node {
-            Node::Place(p) => p.owner = owner[v.index()],
-            Node::Transition(t) => t.owner = owner[v.index()],
+            Node::Place(p) => p.owner = o,
+            Node::Transition(t) => t.owner = o,
         }
-        graph.add_node(node);
+        map[v.index()] = Some(graph.add_node(node));
     }
+    let at = |v: NodeId| map[v.index()].expect("bundles touch no node of the end tree");
     let mut skip = vec![false; net.graph.edge_count()];
     let mut extra: Vec<(NodeId, NodeId, ArcKind, ColourOp)> = Vec::new();
     let name = |o: Owner| owner_name(net, o);
@@ -167,18 +212,18 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
                     guard: None,
                     delay: None,
                 }));
-                extra.push((*transition, inbox, ArcKind::Produce, send));
+                extra.push((at(*transition), inbox, ArcKind::Produce, send));
                 extra.push((inbox, proxy, ArcKind::Consume, ColourOp::Keep));
                 for (p, c) in targets {
                     let local = if same { ColourOp::Keep } else { c };
-                    extra.push((proxy, p, ArcKind::Produce, local));
+                    extra.push((proxy, at(p), ArcKind::Produce, local));
                 }
             }
             Bundle::PreJoin { join, from, places } => {
                 let j = net.transition(*join).expect("pre-join before a transition");
                 let depth = net.place(places[0]).map_or(0, |p| p.depth);
                 for &p in places {
-                    if let Node::Place(place) = &mut graph[p] {
+                    if let Node::Place(place) = &mut graph[at(p)] {
                         place.owner = *from;
                     }
                     for e in net.graph.edges_connecting(p, *join) {
@@ -203,10 +248,10 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
                     depth,
                 }));
                 for &p in places {
-                    extra.push((p, pre, ArcKind::Consume, ColourOp::Keep));
+                    extra.push((at(p), pre, ArcKind::Consume, ColourOp::Keep));
                 }
                 extra.push((pre, inbox, ArcKind::Produce, ColourOp::Keep));
-                extra.push((inbox, *join, ArcKind::Consume, ColourOp::Keep));
+                extra.push((inbox, at(*join), ArcKind::Consume, ColourOp::Keep));
             }
             Bundle::Forward { place, from, arcs } => {
                 let p = net.place(*place).expect("forward into a place");
@@ -232,27 +277,62 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
                 for &e in arcs {
                     skip[e.index()] = true;
                     let s = net.graph.edge_endpoints(e).expect("edge").0;
-                    extra.push((s, local, ArcKind::Produce, net.graph[e].colour));
+                    extra.push((at(s), local, ArcKind::Produce, net.graph[e].colour));
                 }
                 extra.push((local, fwd, ArcKind::Consume, ColourOp::Keep));
-                extra.push((fwd, *place, ArcKind::Produce, ColourOp::Keep));
+                extra.push((fwd, at(*place), ArcKind::Produce, ColourOp::Keep));
             }
         }
     }
     for e in net.graph.edge_references() {
         if !skip[e.id().index()] {
-            graph.add_edge(e.source(), e.target(), *e.weight());
+            graph.add_edge(at(e.source()), at(e.target()), *e.weight());
         }
     }
+    let arc = |kind, colour| Arc {
+        kind,
+        weight: 1,
+        colour,
+    };
     for (a, b, kind, colour) in extra {
+        graph.add_edge(a, b, arc(kind, colour));
+    }
+    if let Some(end) = end {
+        let finish = net.transition(end.finish).expect("finish is a transition");
+        let span = finish.span;
+        let mut by_owner: BTreeMap<Owner, Vec<NodeId>> = BTreeMap::new();
+        for &p in &end.inputs {
+            by_owner.entry(owner[p.index()]).or_default().push(p);
+        }
+        for (o, inputs) in by_owner {
+            let who = name(o);
+            let place = graph.add_node(Node::Place(Place {
+                id: format!("final.{who}"),
+                label: format!("end of the mission on {who}"),
+                kind: PlaceKind::Final,
+                owner: o,
+                span: Some(span),
+                depth: 0,
+            }));
+            let t = graph.add_node(Node::Transition(Transition {
+                id: format!("end.{who}"),
+                label: format!("{} on {who}", finish.label),
+                kind: TransitionKind::Finish,
+                owner: o,
+                span,
+                guard: None,
+                delay: None,
+            }));
+            for p in inputs {
+                graph.add_edge(at(p), t, arc(ArcKind::Consume, ColourOp::Keep));
+            }
+            graph.add_edge(t, place, arc(ArcKind::Produce, ColourOp::Keep));
+            graph.add_edge(place, at(end.finish), arc(ArcKind::Consume, ColourOp::Keep));
+        }
         graph.add_edge(
-            a,
-            b,
-            Arc {
-                kind,
-                weight: 1,
-                colour,
-            },
+            at(end.finish),
+            at(net.final_place),
+            arc(ArcKind::Produce, ColourOp::Keep),
         );
     }
     Net {
@@ -260,29 +340,80 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle]) -> Net {
         graph,
         drones: net.drones.clone(),
         profiles: net.profiles.clone(),
-        initial_marking: net.initial_marking.clone(),
-        initial_place: net.initial_place,
-        final_place: net.final_place,
+        initial_marking: net.initial_marking.iter().map(|&p| at(p)).collect(),
+        initial_place: at(net.initial_place),
+        final_place: at(net.final_place),
     }
+}
+
+/// The owners that hold an end of the mission (a final place), in the order
+/// of `owners`: the mission has ended when each of them has reached it.
+fn end_owners(net: &Net) -> Vec<Owner> {
+    let mut ends: Vec<Owner> = net
+        .places()
+        .filter(|(_, p)| p.kind == PlaceKind::Final && p.owner != Owner::Unassigned)
+        .map(|(_, p)| p.owner)
+        .collect();
+    ends.sort();
+    ends.dedup();
+    ends
+}
+
+/// Every owner's slice. The bridges are numbered once for all, and each
+/// slice visits only its own nodes and arcs.
+fn cut_all(net: &Net, owners: &[Owner], mission_id: &str, ends: &[Owner]) -> Vec<Slice> {
+    let index_of = |o: Owner| owners.iter().position(|&x| x == o);
+    let mut nodes: Vec<Vec<NodeId>> = vec![Vec::new(); owners.len()];
+    // Index of every node among its owner's places or transitions.
+    let mut local = vec![u32::MAX; net.graph.node_count()];
+    let mut counts = vec![(0u32, 0u32); owners.len()];
+    for v in net.graph.node_indices() {
+        if let Some(i) = index_of(net.owner(v)) {
+            nodes[i].push(v);
+            let count = if net.is_place(v) {
+                &mut counts[i].0
+            } else {
+                &mut counts[i].1
+            };
+            local[v.index()] = *count;
+            *count += 1;
+        }
+    }
+    let mut bridges: Vec<Vec<(u32, petgraph::graph::EdgeIndex)>> = vec![Vec::new(); owners.len()];
+    for (id, e) in bridge_order(net).into_iter().enumerate() {
+        let (t, p) = net.graph.edge_endpoints(e).expect("edge");
+        for o in [net.owner(t), net.owner(p)] {
+            if let Some(i) = index_of(o) {
+                bridges[i].push((id as u32, e));
+            }
+        }
+    }
+    let ends: Vec<String> = ends.iter().map(|&o| owner_name(net, o)).collect();
+    owners
+        .iter()
+        .zip(nodes)
+        .zip(bridges)
+        .map(|((&o, nodes), bridges)| cut(net, o, mission_id, &nodes, &local, &bridges, &ends))
+        .collect()
 }
 
 /// The slice of one owner: its nodes, its internal arcs, and a bridge for
 /// every arc between it and another owner.
-fn cut(net: &Net, me: Owner, mission_id: &str) -> Slice {
-    let mut local = vec![u32::MAX; net.graph.node_count()];
+fn cut(
+    net: &Net,
+    me: Owner,
+    mission_id: &str,
+    nodes: &[NodeId],
+    local: &[u32],
+    bridges: &[(u32, petgraph::graph::EdgeIndex)],
+    ends: &[String],
+) -> Slice {
     let mut places = Vec::new();
     let mut transitions = Vec::new();
-    for v in net.graph.node_indices() {
-        if net.owner(v) != me {
-            continue;
-        }
+    for &v in nodes {
         match &net.graph[v] {
-            Node::Place(p) => {
-                local[v.index()] = places.len() as u32;
-                places.push(p.clone());
-            }
+            Node::Place(p) => places.push(p.clone()),
             Node::Transition(t) => {
-                local[v.index()] = transitions.len() as u32;
                 transitions.push(SliceTransition {
                     transition: t.clone(),
                     consume: Vec::new(),
@@ -292,41 +423,46 @@ fn cut(net: &Net, me: Owner, mission_id: &str) -> Slice {
             }
         }
     }
+    let local = |v: NodeId| local[v.index()];
     let mut bridges_in = Vec::new();
     let mut bridges_out = Vec::new();
     let mut peers = BTreeSet::new();
-    for (id, e) in bridge_order(net).into_iter().enumerate() {
+    for &(id, e) in bridges {
         let (t, p) = net.graph.edge_endpoints(e).expect("edge");
         let (from, to) = (net.owner(t), net.owner(p));
         if from == me {
             peers.insert(owner_name(net, to));
             bridges_out.push(BridgeOut {
-                id: id as u32,
-                transition: local[t.index()],
+                id,
+                transition: local(t),
                 to: owner_name(net, to),
                 colour: net.graph[e].colour,
             });
         } else if to == me {
             peers.insert(owner_name(net, from));
             bridges_in.push(BridgeIn {
-                id: id as u32,
+                id,
                 from: owner_name(net, from),
-                inbox: local[p.index()],
+                inbox: local(p),
             });
         }
     }
     // Internal arcs, in a stable order (by node, then by arc insertion).
-    for v in net.graph.node_indices() {
-        if net.owner(v) != me || net.is_place(v) {
+    let mut final_place = None;
+    for &v in nodes {
+        if net.is_place(v) {
+            if net.place(v).is_some_and(|p| p.kind == PlaceKind::Final) {
+                final_place = Some(local(v));
+            }
             continue;
         }
-        let st = &mut transitions[local[v.index()] as usize];
+        let st = &mut transitions[local(v) as usize];
         let mut ins: Vec<_> = net.graph.edges_directed(v, Direction::Incoming).collect();
         ins.sort_by_key(|e| e.id());
         for e in ins {
             match e.weight().kind {
-                ArcKind::Consume => st.consume.push(local[e.source().index()]),
-                ArcKind::Read => st.read.push(local[e.source().index()]),
+                ArcKind::Consume => st.consume.push(local(e.source())),
+                ArcKind::Read => st.read.push(local(e.source())),
                 ArcKind::Produce => {}
             }
         }
@@ -335,7 +471,7 @@ fn cut(net: &Net, me: Owner, mission_id: &str) -> Slice {
         for e in outs {
             if net.owner(e.target()) == me {
                 st.produce.push(Produce {
-                    place: local[e.target().index()],
+                    place: local(e.target()),
                     colour: e.weight().colour,
                 });
             }
@@ -355,9 +491,8 @@ fn cut(net: &Net, me: Owner, mission_id: &str) -> Slice {
         .initial_marking
         .iter()
         .filter(|&&p| net.owner(p) == me)
-        .map(|&p| local[p.index()])
+        .map(|&p| local(p))
         .collect();
-    let final_place = (net.owner(net.final_place) == me).then(|| local[net.final_place.index()]);
     Slice {
         mission: net.name.clone(),
         mission_id: mission_id.to_string(),
@@ -371,6 +506,7 @@ fn cut(net: &Net, me: Owner, mission_id: &str) -> Slice {
         transitions,
         initial_marking,
         final_place,
+        ends: ends.to_vec(),
         bridges_in,
         bridges_out,
         peers: peers.into_iter().collect(),

@@ -42,7 +42,7 @@
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 
-use eamos_petri::net::{ArcKind, ColourOp, Net, PlaceKind, TransitionKind};
+use eamos_petri::net::{ArcKind, ColourOp, Net, TransitionKind};
 use petgraph::visit::EdgeRef;
 use petgraph::Direction;
 
@@ -182,7 +182,7 @@ impl Game {
         let mut final_place = u32::MAX;
         for (v, p) in net.places() {
             index[v.index()] = place_ids.len() as u32;
-            if v == net.final_place || p.kind == PlaceKind::Final {
+            if v == net.final_place {
                 final_place = place_ids.len() as u32;
             }
             place_ids.push(p.id.clone());

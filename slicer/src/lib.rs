@@ -9,6 +9,20 @@
 //!
 //! # The algorithm
 //!
+//! 0. **The end** (`end.rs`). The tree of silent joins in front of `final`
+//!    (the join of the last PAR block, `Finish`) is taken out of the net
+//!    before partitioning: nobody plays it. Each owner consumes the tree's
+//!    inputs that it holds into an end of its own (`end.<owner>` marks
+//!    `final.<owner>`), and the mission has ended when every owner listed in
+//!    [`Slice::ends`] has reached its end. The executors learn it from the
+//!    `end` control notice each of them sends on reaching its end; a notice
+//!    is delivered exactly once like a token but carries no token of the
+//!    net, so it is not a bridge. That is how the paper's drones behave
+//!    (each stops when its part is over; the external arcs of its Table 7
+//!    are action triggers only), and it saves one bridge per drone that
+//!    would otherwise report its last action to the owner of `final`. When the tree is not
+//!    of that shape (an input that two branches may mark, a guarded or timed
+//!    step, a loop colour), `final` stays on one owner as an ordinary place.
 //! 1. **Units** (`partition.rs`). A place and every transition that consumes
 //!    or reads it must live together (the invariant of the architecture), and
 //!    this is transitive: two places consumed by one transition go together.
@@ -34,6 +48,10 @@
 //!    the most arcs to, then improved by local search: move one unit, or the
 //!    chain of free units around it that share its owner (a join and the fork
 //!    after it), to the owner of a neighbour whenever the bridge count drops.
+//!    The count is kept as a sum of terms per transition (fan-outs), per join
+//!    (pre-joins) and per place (forwards and single arcs), and a move is
+//!    judged by the terms within two arcs of it, so a pass costs time linear
+//!    in the net (`Cost` in `partition.rs`).
 //!    At equal cost the paper's convention decides: a fork lives with the
 //!    unit that feeds it, a join with the unit it feeds, so no drone relays
 //!    what it does not need; then the smaller owner (ground station, then
@@ -49,8 +67,9 @@
 //! # Why the slices behave like the net
 //!
 //! Run the slices together over a network that delays messages arbitrarily
-//! (and does not lose them: the transports' job). That is the mission net
-//! with two kinds of changes, and neither changes its visible traces (action
+//! (and does not lose them: the transports' job), the owners' ends joined
+//! into `final` by one silent transition that nobody runs (see
+//! [`compose`]). That is the mission net with two kinds of changes, and neither changes its visible traces (action
 //! starts, ends and cancels, and reaching `final`), its dead markings or its
 //! 1-safety:
 //!
@@ -71,7 +90,11 @@
 //!   j'` and `J: j', b`. It is only done when `J` is the sole consumer of
 //!   `a1, a2` (no other consumer, no reader) and all of `J`'s inputs have one
 //!   depth: `PJ` then fires exactly when `J` could have taken `a1, a2`, and
-//!   nothing else could take them meanwhile.
+//!   nothing else could take them meanwhile. The distributed end is the same
+//!   rewrite applied to the whole end tree: its inputs each have one
+//!   producer (so every run that ends marks all of them, none is one of two
+//!   alternatives), its joins are their only consumers, nobody reads them,
+//!   and they share the depth of `final`.
 //!
 //! Colours follow: a bridge carries the colour after its arc's colour
 //! function; a fan-out sends the common function once (or the binding colour
@@ -95,6 +118,7 @@ mod codec;
 pub mod compose;
 mod distribute;
 pub mod dot;
+mod end;
 pub mod equivalence;
 mod error;
 mod output;

@@ -11,7 +11,8 @@
 //! for it, after bundling (see [`plan_bundles`]), so the search optimises
 //! exactly what it reports.
 
-use std::collections::BTreeMap;
+use std::cmp::Reverse;
+use std::collections::{BTreeMap, BinaryHeap};
 
 use eamos_petri::net::{ArcKind, Net, Node, NodeId, Owner};
 use petgraph::graph::EdgeIndex;
@@ -439,53 +440,319 @@ const MAX_PASSES: usize = 12;
 /// Free units moved together as one chain at most.
 const MAX_CHAIN: usize = 16;
 
+/// The bridge count of [`plan_bundles`], kept as a sum of local terms so
+/// that a move is judged by the few terms it can change.
+///
+/// The greedy plan never has to choose between two bundles of one kind
+/// (fan-outs of different transitions, pre-joins of different joins and
+/// forwards into different places share no arc), and a later kind only
+/// takes arcs an earlier one left. So the number of bundles is
+///
+/// - per transition `t`: the remote owners that receive two arcs or more
+///   from `t` (its fan-outs);
+/// - per join `J`: the producer owners whose eligible, uncovered inputs of
+///   `J` bring two arcs or more (its pre-joins);
+/// - per place `p` outside a pre-join: the remote owners among the
+///   producers of its arcs that no fan-out covers (a forward, or one direct
+///   arc, each).
+///
+/// Each term reads the owners of a node's neighbours and of their
+/// neighbours, so a move changes only the terms around it (see
+/// [`Cost::anchors`]): evaluating it costs what its neighbourhood costs,
+/// not what the net costs.
+struct Cost {
+    /// Produce arcs out of every transition, by target (one entry per arc).
+    outs: Csr,
+    /// Produce arcs into every place, by source (one entry per arc).
+    ins: Csr,
+    /// The transition that is a place's only consumer, when it consumes it.
+    sole: Vec<u32>,
+    /// Consume inputs of every transition whose inputs could be pre-joined
+    /// (one depth, no read arc), empty otherwise.
+    joinable: Csr,
+    marked: Vec<bool>,
+    is_place: Vec<bool>,
+    /// Owner of every node, kept in step with the search.
+    owner: Vec<Owner>,
+    /// Scratch: places in a pre-join, during one evaluation.
+    prejoined: Vec<bool>,
+    /// Scratch: membership stamps for collecting anchors.
+    stamp: Vec<u32>,
+    epoch: u32,
+}
+
+/// The terms a move of some units can change.
+#[derive(Default)]
+struct Anchors {
+    fanouts: Vec<u32>,
+    joins: Vec<u32>,
+    places: Vec<u32>,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// Adjacency lists of all nodes in two flat arrays (one allocation each,
+/// where a list per node would make hundreds of thousands).
+struct Csr {
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl Csr {
+    /// From `(node, item)` pairs; a node's items keep their order.
+    fn new(n: usize, mut pairs: Vec<(u32, u32)>) -> Csr {
+        pairs.sort_by_key(|&(v, _)| v);
+        let mut start = vec![0u32; n + 1];
+        for &(v, _) in &pairs {
+            start[v as usize + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        Csr {
+            start,
+            items: pairs.into_iter().map(|(_, x)| x).collect(),
+        }
+    }
+
+    fn of(&self, v: u32) -> &[u32] {
+        &self.items[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
+}
+
+impl Cost {
+    fn new(net: &Net, facts: &Facts, owner: Vec<Owner>) -> Cost {
+        let n = net.graph.node_count();
+        let mut outs = Vec::new();
+        let mut ins = Vec::new();
+        let mut consumers = vec![0u32; n];
+        let mut sole = vec![NONE; n];
+        for e in net.graph.edge_references() {
+            let (a, b) = (e.source().index(), e.target().index());
+            match e.weight().kind {
+                ArcKind::Produce => {
+                    outs.push((a as u32, b as u32));
+                    ins.push((b as u32, a as u32));
+                }
+                ArcKind::Consume => {
+                    consumers[a] += 1;
+                    sole[a] = b as u32;
+                }
+                ArcKind::Read => consumers[a] += 1,
+            }
+        }
+        for (p, c) in consumers.iter().enumerate() {
+            if *c != 1 {
+                sole[p] = NONE;
+            }
+        }
+        let mut joinable = Vec::new();
+        let mut inputs = Vec::new();
+        for t in net.graph.node_indices() {
+            if net.is_place(t) || net.read_set(t).next().is_some() {
+                continue;
+            }
+            inputs.clear();
+            inputs.extend(net.preset(t).map(|p| p.index() as u32));
+            let depth = inputs.first().map(|&p| facts.depth[p as usize]);
+            if inputs
+                .iter()
+                .all(|&p| Some(facts.depth[p as usize]) == depth)
+            {
+                joinable.extend(inputs.iter().map(|&p| (t.index() as u32, p)));
+            }
+        }
+        Cost {
+            outs: Csr::new(n, outs),
+            ins: Csr::new(n, ins),
+            sole,
+            joinable: Csr::new(n, joinable),
+            marked: facts.marked.clone(),
+            is_place: net.graph.node_indices().map(|v| net.is_place(v)).collect(),
+            owner,
+            prejoined: vec![false; n],
+            stamp: vec![0; n],
+            epoch: 0,
+        }
+    }
+
+    /// Fan-outs of transition `t`.
+    fn fanouts(&self, t: u32) -> usize {
+        let me = self.owner[t as usize];
+        let mut remote: Vec<Owner> = self
+            .outs
+            .of(t)
+            .iter()
+            .map(|&p| self.owner[p as usize])
+            .filter(|&o| o != me)
+            .collect();
+        remote.sort_unstable();
+        remote
+            .chunk_by(|a, b| a == b)
+            .filter(|g| g.len() >= 2)
+            .count()
+    }
+
+    /// Whether the arc `s -> p` crosses inside a fan-out of `s`.
+    fn covered(&self, s: u32, p: u32) -> bool {
+        let to = self.owner[p as usize];
+        to != self.owner[s as usize]
+            && self
+                .outs
+                .of(s)
+                .iter()
+                .filter(|&&q| self.owner[q as usize] == to)
+                .nth(1)
+                .is_some()
+    }
+
+    /// The owner a pre-join of `p` would run on, if `p` can be pre-joined
+    /// (see `prejoinable`) and none of its arcs is in a fan-out.
+    fn prejoin_from(&self, p: u32, join: u32) -> Option<Owner> {
+        if self.marked[p as usize] || self.sole[p as usize] != join {
+            return None;
+        }
+        let here = self.owner[p as usize];
+        let mut from = None;
+        for &s in self.ins.of(p) {
+            let o = self.owner[s as usize];
+            if from.is_some_and(|f| f != o) || o == here || self.covered(s, p) {
+                return None;
+            }
+            from = Some(o);
+        }
+        from
+    }
+
+    /// Pre-joins of `join`; marks their places in `prejoined` when asked.
+    fn prejoins(&mut self, join: u32, mark: bool) -> usize {
+        let mut groups: Vec<(Owner, usize, u32)> = self
+            .joinable
+            .of(join)
+            .iter()
+            .filter_map(|&p| {
+                self.prejoin_from(p, join)
+                    .map(|f| (f, self.ins.of(p).len(), p))
+            })
+            .collect();
+        groups.sort_unstable();
+        let mut count = 0;
+        for g in groups.chunk_by(|a, b| a.0 == b.0) {
+            if g.iter().map(|x| x.1).sum::<usize>() >= 2 {
+                count += 1;
+                if mark {
+                    for x in g {
+                        self.prejoined[x.2 as usize] = true;
+                    }
+                }
+            }
+        }
+        count
+    }
+
+    /// Forwards and direct arcs into place `p`.
+    fn arrivals(&self, p: u32) -> usize {
+        if self.prejoined[p as usize] {
+            return 0;
+        }
+        let here = self.owner[p as usize];
+        let mut remote: Vec<Owner> = self
+            .ins
+            .of(p)
+            .iter()
+            .filter(|&&s| self.owner[s as usize] != here && !self.covered(s, p))
+            .map(|&s| self.owner[s as usize])
+            .collect();
+        remote.sort_unstable();
+        remote.dedup();
+        remote.len()
+    }
+
+    /// The sum of the terms named by `anchors`.
+    fn local(&mut self, a: &Anchors) -> usize {
+        let mut total: usize = a.fanouts.iter().map(|&t| self.fanouts(t)).sum();
+        for &j in &a.joins {
+            total += self.prejoins(j, true);
+        }
+        total += a.places.iter().map(|&p| self.arrivals(p)).sum::<usize>();
+        for &j in &a.joins {
+            for &p in self.joinable.of(j) {
+                self.prejoined[p as usize] = false;
+            }
+        }
+        total
+    }
+
+    /// Every term: the bridge count of the current owners.
+    fn total(&mut self) -> usize {
+        let n = self.owner.len() as u32;
+        let all = Anchors {
+            fanouts: (0..n).filter(|&v| !self.outs.of(v).is_empty()).collect(),
+            joins: (0..n)
+                .filter(|&v| !self.joinable.of(v).is_empty())
+                .collect(),
+            places: (0..n).filter(|&v| !self.ins.of(v).is_empty()).collect(),
+        };
+        self.local(&all)
+    }
+
+    /// The terms that moving `nodes` to another owner can change: fan-outs
+    /// of the transitions moved or feeding a place moved (`S`), pre-joins of
+    /// the joins moved or consuming what `S` produces, arrivals into what
+    /// `S` produces and into those joins' inputs.
+    fn anchors(&mut self, nodes: impl Iterator<Item = u32>, a: &mut Anchors) {
+        self.epoch += 1;
+        let epoch = self.epoch;
+        a.fanouts.clear();
+        a.joins.clear();
+        a.places.clear();
+        for v in nodes {
+            if self.is_place[v as usize] {
+                a.fanouts.extend(self.ins.of(v).iter().copied());
+            } else {
+                a.joins.push(v);
+                a.fanouts.push(v);
+            }
+        }
+        a.fanouts.sort_unstable();
+        a.fanouts.dedup();
+        for &t in &a.fanouts {
+            for &q in self.outs.of(t) {
+                if self.stamp[q as usize] != epoch {
+                    self.stamp[q as usize] = epoch;
+                    a.places.push(q);
+                }
+                if self.sole[q as usize] != NONE {
+                    a.joins.push(self.sole[q as usize]);
+                }
+            }
+        }
+        a.joins.retain(|&j| !self.joinable.of(j).is_empty());
+        a.joins.sort_unstable();
+        a.joins.dedup();
+        for &j in &a.joins {
+            for &p in self.joinable.of(j) {
+                if self.stamp[p as usize] != epoch {
+                    self.stamp[p as usize] = epoch;
+                    a.places.push(p);
+                }
+            }
+        }
+    }
+}
+
 /// Places every free unit: first next to the fixed units it touches most,
 /// then by local search over single units and chains of free units, moving
 /// only when the bridge count drops (or, at an equal count, when the move
 /// follows the fork-with-predecessor, join-with-successor convention).
+///
+/// Linear in the net per pass: the seed visits each unit once per owner it
+/// hears of, and a move is judged by the bridges around it ([`Cost`]).
 pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) -> Assignment {
     let nu = units.units.len();
-    let mut unit_owner: Vec<Option<Owner>> = units.units.iter().map(|u| u.fixed).collect();
-
-    // Seed: spread owners from fixed units to free neighbours, the owner
-    // with the most arcs into the unit first, the smaller owner on a tie.
-    loop {
-        let mut changed = false;
-        for u in 0..nu {
-            if unit_owner[u].is_some() {
-                continue;
-            }
-            let mut score: BTreeMap<Owner, usize> = BTreeMap::new();
-            for &v in &units.units[u].nodes {
-                for e in net.graph.edges_directed(v, Direction::Incoming) {
-                    if let Some(o) = unit_owner[units.unit_of[e.source().index()]] {
-                        if units.unit_of[e.source().index()] != u {
-                            *score.entry(o).or_default() += 1;
-                        }
-                    }
-                }
-                for e in net.graph.edges_directed(v, Direction::Outgoing) {
-                    if let Some(o) = unit_owner[units.unit_of[e.target().index()]] {
-                        if units.unit_of[e.target().index()] != u {
-                            *score.entry(o).or_default() += 1;
-                        }
-                    }
-                }
-            }
-            if let Some((&o, _)) = score.iter().max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0))) {
-                unit_owner[u] = Some(o);
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
+    let mut unit_owner = seed(net, units);
     let default = owners.first().copied().unwrap_or(Owner::Gcs);
-    let mut unit_owner: Vec<Owner> = unit_owner
-        .into_iter()
-        .map(|o| o.unwrap_or(default))
-        .collect();
+    let mut unit_owner: Vec<Owner> = unit_owner.drain(..).map(|o| o.unwrap_or(default)).collect();
 
     let free: Vec<usize> = (0..nu)
         .filter(|&u| units.units[u].fixed.is_none())
@@ -493,10 +760,6 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
     if free.is_empty() {
         return Assignment { unit_owner };
     }
-    let cost_of = |unit_owner: &[Owner]| -> usize {
-        let owner: Vec<Owner> = units.unit_of.iter().map(|&u| unit_owner[u]).collect();
-        plan_bundles(net, facts, &owner).len()
-    };
     let rank = |unit_owner: &[Owner], u: usize, o: Owner| -> u8 {
         match units.units[u].hint {
             Hint::Upstream(w) | Hint::Downstream(w) if unit_owner[w] == o => 0,
@@ -504,20 +767,38 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
             _ => 1,
         }
     };
-
-    let mut cost = cost_of(&unit_owner);
+    let owner_of_nodes = units.unit_of.iter().map(|&u| unit_owner[u]).collect();
+    let mut model = Cost::new(net, facts, owner_of_nodes);
+    let mut cost = model.total();
+    let set = |model: &mut Cost, group: &[usize], o: Owner| {
+        for &g in group {
+            for &v in &units.units[g].nodes {
+                model.owner[v.index()] = o;
+            }
+        }
+    };
+    // The first pass visits every free unit; later ones only those near a
+    // unit that moved (their moves are judged by owners within a few arcs).
+    let mut todo = free;
+    let mut dirty = vec![false; nu];
+    let mut anchors = Anchors::default();
     for _ in 0..MAX_PASSES {
         let mut improved = false;
-        for &u in &free {
+        let mut moved: Vec<usize> = Vec::new();
+        for &u in &todo {
             // The unit alone, then the chain of free units around it that
-            // share its owner (a join and the fork after it move together).
-            let chain = chain_of(units, &unit_owner, u);
-            let groups = if chain.len() > 1 {
-                vec![vec![u], chain]
-            } else {
-                vec![chain]
-            };
-            for group in groups {
+            // share its owner (a join and the fork after it move together),
+            // taken after the unit's own move so that it moves as one.
+            for step in 0..2 {
+                let group = if step == 0 {
+                    vec![u]
+                } else {
+                    let chain = chain_of(units, &unit_owner, u);
+                    if chain.len() <= 1 {
+                        break;
+                    }
+                    chain
+                };
                 let current = unit_owner[u];
                 let mut candidates: Vec<Owner> = group
                     .iter()
@@ -526,12 +807,24 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
                     .collect();
                 candidates.sort();
                 candidates.dedup();
+                if candidates.is_empty() {
+                    continue;
+                }
+                model.anchors(
+                    group
+                        .iter()
+                        .flat_map(|&g| units.units[g].nodes.iter().map(|v| v.index() as u32)),
+                    &mut anchors,
+                );
+                let before = model.local(&anchors);
                 let mut best = (cost, rank(&unit_owner, u, current), current);
                 for o in candidates {
+                    set(&mut model, &group, o);
                     for &g in &group {
                         unit_owner[g] = o;
                     }
-                    let c = (cost_of(&unit_owner), rank(&unit_owner, u, o), o);
+                    let after = cost + model.local(&anchors) - before;
+                    let c = (after, rank(&unit_owner, u, o), o);
                     if (c.0, c.1) < (best.0, best.1) {
                         best = c;
                     }
@@ -539,20 +832,124 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
                         unit_owner[g] = current;
                     }
                 }
+                set(&mut model, &group, best.2);
                 if best.2 != current {
                     for &g in &group {
                         unit_owner[g] = best.2;
                     }
                     cost = best.0;
                     improved = true;
+                    moved.extend_from_slice(&group);
                 }
             }
         }
         if !improved {
             break;
         }
+        // Units within two hops of a move, in index order.
+        let mut next = Vec::new();
+        for &m in &moved {
+            for &w in std::iter::once(&m).chain(&units.units[m].neighbours) {
+                for &x in std::iter::once(&w).chain(&units.units[w].neighbours) {
+                    if units.units[x].fixed.is_none() && !dirty[x] {
+                        dirty[x] = true;
+                        next.push(x);
+                    }
+                }
+            }
+        }
+        for &x in &next {
+            dirty[x] = false;
+        }
+        next.sort_unstable();
+        todo = next;
     }
+    debug_assert_eq!(
+        cost,
+        plan_bundles(
+            net,
+            facts,
+            &Assignment {
+                unit_owner: unit_owner.clone()
+            }
+            .node_owners(units)
+        )
+        .len(),
+        "the incremental bridge count drifted from the plan"
+    );
     Assignment { unit_owner }
+}
+
+/// Spreads owners from the fixed units to free neighbours, the owner with
+/// the most arcs into the unit first, the smaller owner on a tie. Sweeps
+/// the units in index order, a unit seeing the owners given earlier in the
+/// same sweep; only units next to a newly placed one are visited again.
+fn seed(net: &Net, units: &Units) -> Vec<Option<Owner>> {
+    let mut unit_owner: Vec<Option<Owner>> = units.units.iter().map(|u| u.fixed).collect();
+    let nu = units.units.len();
+    // Units to visit in this sweep (at or after the current index) and in
+    // the next one, as min-heaps.
+    let mut this: BinaryHeap<Reverse<usize>> = BinaryHeap::new();
+    let mut next: BinaryHeap<Reverse<usize>> = BinaryHeap::new();
+    let mut queued = vec![false; nu];
+    for u in 0..nu {
+        if unit_owner[u].is_none()
+            && units.units[u]
+                .neighbours
+                .iter()
+                .any(|&w| unit_owner[w].is_some())
+        {
+            queued[u] = true;
+            this.push(Reverse(u));
+        }
+    }
+    loop {
+        while let Some(Reverse(u)) = this.pop() {
+            queued[u] = false;
+            if unit_owner[u].is_some() {
+                continue;
+            }
+            let mut score: BTreeMap<Owner, usize> = BTreeMap::new();
+            for &v in &units.units[u].nodes {
+                let arcs = net
+                    .graph
+                    .edges_directed(v, Direction::Incoming)
+                    .map(|e| e.source())
+                    .chain(
+                        net.graph
+                            .edges_directed(v, Direction::Outgoing)
+                            .map(|e| e.target()),
+                    );
+                for w in arcs {
+                    let wu = units.unit_of[w.index()];
+                    if wu != u {
+                        if let Some(o) = unit_owner[wu] {
+                            *score.entry(o).or_default() += 1;
+                        }
+                    }
+                }
+            }
+            let Some((&o, _)) = score.iter().max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0))) else {
+                continue;
+            };
+            unit_owner[u] = Some(o);
+            for &w in &units.units[u].neighbours {
+                if unit_owner[w].is_none() && !queued[w] {
+                    queued[w] = true;
+                    if w > u {
+                        this.push(Reverse(w));
+                    } else {
+                        next.push(Reverse(w));
+                    }
+                }
+            }
+        }
+        if next.is_empty() {
+            break;
+        }
+        std::mem::swap(&mut this, &mut next);
+    }
+    unit_owner
 }
 
 /// The free units reachable from `u` through free units of the same owner.

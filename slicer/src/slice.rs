@@ -14,6 +14,10 @@
 //! - a message `(id, colour)` from a peer puts a token of that colour into
 //!   the `inbox` of the [`BridgeIn`] with that id.
 //!
+//! The mission has ended when every owner in [`Slice::ends`] has marked its
+//! [`final_place`](Slice::final_place); each tells the others with a control
+//! notice that is not a bridge.
+//!
 //! Nothing else crosses between drones. At most one message per bridge is in
 //! flight at any time when the mission net is 1-safe (see the crate docs), so
 //! an executor never has to queue two tokens for one inbox.
@@ -55,8 +59,14 @@ pub struct Slice {
     pub transitions: Vec<SliceTransition>,
     /// Places holding a token (of the empty colour) at the start.
     pub initial_marking: Vec<LocalPlace>,
-    /// The place whose marking ends the mission, on the one slice that has it.
+    /// This slice's end of the mission, if it holds one: marked when its
+    /// part of the mission's last join is done.
     pub final_place: Option<LocalPlace>,
+    /// Every owner (drone or [`GCS`]) that holds an end, sorted as the
+    /// mission's owners. The mission has ended when each of them has reached
+    /// its end; an executor that reaches its own tells every peer with the
+    /// `end` control notice. Owners not listed just play until then.
+    pub ends: Vec<String>,
     pub bridges_in: Vec<BridgeIn>,
     pub bridges_out: Vec<BridgeOut>,
     /// Peers this slice sends to or receives from, sorted.
@@ -173,6 +183,21 @@ impl Slice {
                 ));
             }
         }
+        if self.ends.is_empty() {
+            return bad("no owner holds an end of the mission".to_string());
+        }
+        if self.final_place.is_some() != self.ends.contains(&self.drone) {
+            return bad(format!(
+                "`{}` {} an end of the mission but the list of ends {:?} says otherwise",
+                self.drone,
+                if self.final_place.is_some() {
+                    "holds"
+                } else {
+                    "holds no"
+                },
+                self.ends
+            ));
+        }
         let mut ids = BTreeSet::new();
         let mut peers = BTreeSet::new();
         for b in &self.bridges_in {
@@ -209,7 +234,7 @@ impl Slice {
                 self.peers, peers
             ));
         }
-        for name in self.peers.iter().chain(&self.telemetry) {
+        for name in self.peers.iter().chain(&self.telemetry).chain(&self.ends) {
             if name != GCS && !self.drones.contains(name) {
                 return bad(format!("`{name}` is not a drone of the mission"));
             }

@@ -41,19 +41,45 @@ fn experiment_b_needs_no_more_bridges_per_drone_than_table_7_and_meets_the_lower
 }
 
 #[test]
-fn experiment_c_meets_the_lower_bound_and_beats_table_7_on_two_drones() {
+fn experiment_c_needs_no_more_bridges_per_drone_than_table_7_and_meets_the_lower_bound() {
     let s = sliced("experiment_c");
+    // Table 7, column C: external arcs in / out.
+    for (drone, paper) in [("Drone1", (8, 8)), ("Drone2", (8, 8)), ("Drone3", (15, 12))] {
+        let ours = in_out(&s, drone);
+        assert!(
+            ours.0 <= paper.0 && ours.1 <= paper.1,
+            "{drone}: {ours:?} vs paper {paper:?}"
+        );
+    }
+    // The paper's 31 messages less the one the central Land/Disarm barrier
+    // saves (each of the paper's drones waits for every landing itself).
     let bound = lower_bound(&common::paper_mission("experiment_c")).expect("straight-line mission");
+    assert_eq!(bound, 30);
     assert_eq!(s.bridge_count(), bound, "{:?}", bridges(&s));
-    // Table 7, column C. The paper's drones do not report the mission's end
-    // to anyone; here one owner holds `final`, which costs the two other
-    // drones' last messages, so no slicing fits every paper cell (see the
-    // README): the bound equals the paper's 31 messages plus those two less
-    // the one the central Land/Disarm barrier saves.
-    assert_eq!(bound, 32);
-    let (d2, d3) = (in_out(&s, "Drone2"), in_out(&s, "Drone3"));
-    assert!(d2.0 <= 8 && d2.1 <= 8, "Drone2 {d2:?}");
-    assert!(d3.0 <= 15, "Drone3 {d3:?}");
+}
+
+#[test]
+fn a_mission_ends_on_every_drone_that_takes_part_in_its_last_join() {
+    // Experiment C ends with all three drones disarming in parallel: each
+    // ends where it disarms, and nobody sends a token to say so.
+    let s = sliced("experiment_c");
+    for drone in ["Drone1", "Drone2", "Drone3"] {
+        let slice = s.get(drone).unwrap();
+        assert!(slice.final_place.is_some(), "{drone} holds no end");
+        assert_eq!(slice.ends, ["Drone1", "Drone2", "Drone3"]);
+    }
+    let gcs = s.get(eamos_slicer::GCS).unwrap();
+    assert_eq!(gcs.final_place, None);
+    assert_eq!(gcs.ends, ["Drone1", "Drone2", "Drone3"]);
+}
+
+#[test]
+fn a_mission_that_ends_with_one_action_ends_on_that_drone_only() {
+    let s = sliced("experiment_a");
+    for slice in &s.slices {
+        assert_eq!(slice.ends, ["Drone1"], "{}", slice.drone);
+        assert_eq!(slice.final_place.is_some(), slice.drone == "Drone1");
+    }
 }
 
 #[test]
