@@ -61,6 +61,9 @@ use eamos_mid::Vec3;
 use crate::transport::zenoh::ZenohOptions;
 use crate::transport::GCS;
 
+mod tls;
+pub use tls::{FleetTls, PeerTls};
+
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Fleet {
@@ -102,6 +105,9 @@ pub struct KeySettings {
 pub struct ZenohSettings {
     #[serde(default)]
     pub scouting: bool,
+    /// TLS with mutual authentication for every peer (see [`tls`]).
+    #[serde(default)]
+    pub tls: Option<FleetTls>,
 }
 
 /// How one peer joins the zenoh network.
@@ -112,6 +118,9 @@ pub struct PeerNet {
     pub listen: Vec<String>,
     #[serde(default)]
     pub connect: Vec<String>,
+    /// This peer's TLS certificate and key (see [`tls`]).
+    #[serde(default)]
+    pub tls: Option<PeerTls>,
 }
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
@@ -213,7 +222,9 @@ impl Fleet {
             path: path.display().to_string(),
             error: e.to_string(),
         })?;
-        Fleet::parse(&text, &path.display().to_string(), mission, drones)
+        let mut fleet = Fleet::parse(&text, &path.display().to_string(), mission, drones)?;
+        fleet.resolve_tls_paths(path.parent().unwrap_or(Path::new(".")));
+        Ok(fleet)
     }
 
     /// Parses fleet text; `name` is what errors call the file.
@@ -277,6 +288,7 @@ impl Fleet {
                 error: format!("[sim]: {e}"),
             })?;
         }
+        fleet.check_tls(name, drones)?;
         fleet.digest = crate::identity::fleet_digest(text);
         Ok(fleet)
     }
@@ -315,7 +327,15 @@ impl Fleet {
             return given;
         }
         let k = peers.iter().position(|p| p == peer).unwrap_or(0);
-        vec![format!("tcp/127.0.0.1:{}", loopback_port(mission_id, k))]
+        let scheme = if self.zenoh.tls.is_some() {
+            "tls"
+        } else {
+            "tcp"
+        };
+        vec![format!(
+            "{scheme}/127.0.0.1:{}",
+            loopback_port(mission_id, k)
+        )]
     }
 
     /// How `peer` joins zenoh: its listen endpoints, and the others' as
@@ -339,6 +359,7 @@ impl Fleet {
             listen: self.listen(mission_id, peers, peer),
             connect,
             scouting: self.zenoh.scouting,
+            tls: self.tls_files(peer),
         }
     }
 }

@@ -14,8 +14,15 @@
 //! so that two fleets on one network never meet by accident. zenoh does not
 //! retransmit across a reconnect: exactly-once delivery is the job of
 //! [`super::reliable::Bridges`] above this link.
+//!
+//! With [`TlsFiles`] every link is TLS with mutual authentication: each peer
+//! presents its certificate both when it listens and when it connects, and
+//! accepts only peers whose certificate the fleet's CA signed. Plain `tcp/`
+//! links are then refused at both ends (zenoh's protocol whitelist holds
+//! only `tls`), so a misconfigured peer cannot fall back to clear text.
 
 use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -37,6 +44,56 @@ pub struct ZenohOptions {
     pub connect: Vec<String>,
     /// Find peers by multicast scouting as well (off by default).
     pub scouting: bool,
+    /// TLS with mutual authentication; every endpoint must then be `tls/`.
+    pub tls: Option<TlsFiles>,
+}
+
+/// The files of one peer for TLS with mutual authentication (PEM).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TlsFiles {
+    /// The fleet's certificate authority: only peers whose certificate it
+    /// signed are let in, and only such peers are connected to.
+    pub ca: PathBuf,
+    /// This peer's certificate, presented when it listens and when it
+    /// connects (zenoh peers do both).
+    pub certificate: PathBuf,
+    /// The private key of `certificate`.
+    pub key: PathBuf,
+    /// Check that the certificate of a peer we connect to names the address
+    /// we connect to (its subject alternative names). Off only for fleets
+    /// whose addresses change (DHCP); the CA check stays on either way.
+    pub verify_name: bool,
+}
+
+impl TlsFiles {
+    /// Reads every file once before zenoh does, so that a missing file or
+    /// a key in the wrong place is reported with its path and what it was
+    /// meant to be, rather than as a handshake that never succeeds.
+    fn check(&self) -> Result<(), TransportError> {
+        for (what, path, marker) in [
+            ("CA certificate", &self.ca, "-----BEGIN CERTIFICATE-----"),
+            (
+                "certificate",
+                &self.certificate,
+                "-----BEGIN CERTIFICATE-----",
+            ),
+            ("private key", &self.key, "PRIVATE KEY-----"),
+        ] {
+            let text = std::fs::read(path).map_err(|e| {
+                TransportError::Config(format!(
+                    "cannot read the TLS {what} {}: {e}",
+                    path.display()
+                ))
+            })?;
+            if !String::from_utf8_lossy(&text).contains(marker) {
+                return Err(TransportError::Config(format!(
+                    "the TLS {what} {} is not a PEM {what} (no `{marker}` line)",
+                    path.display()
+                )));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The key expression of `what` (`bridge`, `ack`, `telemetry`, `alive`) for
@@ -71,7 +128,7 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
         )
     };
     let scouting = if options.scouting { "true" } else { "false" };
-    for (k, v) in [
+    let mut settings = vec![
         ("mode", json("peer")),
         ("listen/endpoints", list(&options.listen)),
         ("connect/endpoints", list(&options.connect)),
@@ -79,7 +136,41 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
         ("scouting/gossip/enabled", scouting.to_string()),
         ("transport/unicast/lowlatency", "true".to_string()),
         ("transport/unicast/qos/enabled", "false".to_string()),
-    ] {
+    ];
+    if let Some(tls) = &options.tls {
+        if let Some(plain) = options
+            .listen
+            .iter()
+            .chain(&options.connect)
+            .find(|e| !e.starts_with("tls/"))
+        {
+            return Err(TransportError::Config(format!(
+                "endpoint `{plain}` is not a TLS endpoint: with certificates every endpoint is `tls/HOST:PORT`"
+            )));
+        }
+        tls.check()?;
+        let path = |p: &PathBuf| json(&p.to_string_lossy());
+        settings.extend([
+            ("transport/link/protocols", "[\"tls\"]".to_string()),
+            ("transport/link/tls/root_ca_certificate", path(&tls.ca)),
+            (
+                "transport/link/tls/listen_certificate",
+                path(&tls.certificate),
+            ),
+            ("transport/link/tls/listen_private_key", path(&tls.key)),
+            (
+                "transport/link/tls/connect_certificate",
+                path(&tls.certificate),
+            ),
+            ("transport/link/tls/connect_private_key", path(&tls.key)),
+            ("transport/link/tls/enable_mtls", "true".to_string()),
+            (
+                "transport/link/tls/verify_name_on_connect",
+                tls.verify_name.to_string(),
+            ),
+        ]);
+    }
+    for (k, v) in settings {
         c.insert_json5(k, &v)
             .map_err(|e| TransportError::Config(format!("{k} = {v}: {e}")))?;
     }
@@ -454,6 +545,7 @@ mod tests {
             listen: vec![tcp(7447)],
             connect: vec![tcp(7448)],
             scouting: false,
+            tls: None,
         })
         .unwrap();
         let text = format!("{c}");
@@ -482,6 +574,7 @@ mod tests {
                 listen: vec![tcp(pa)],
                 connect: vec![tcp(pb)],
                 scouting: false,
+                tls: None,
             },
         )
         .await
@@ -494,6 +587,7 @@ mod tests {
                 listen: vec![tcp(pb)],
                 connect: vec![tcp(pa)],
                 scouting: false,
+                tls: None,
             },
         )
         .await
@@ -549,6 +643,7 @@ mod tests {
                 listen: vec![tcp(pa)],
                 connect: vec![tcp(pb)],
                 scouting: false,
+                tls: None,
             },
         )
         .await
@@ -561,6 +656,7 @@ mod tests {
                 listen: vec![tcp(pb)],
                 connect: vec![tcp(pa)],
                 scouting: false,
+                tls: None,
             },
         )
         .await
@@ -580,5 +676,273 @@ mod tests {
         a.link.send("D2", &m).await.unwrap();
         tokio::time::sleep(Duration::from_millis(200)).await;
         assert!(b.frames.try_recv().is_err());
+    }
+
+    /// A throwaway certificate authority and the certificates it signs, in
+    /// a temporary directory, as a drone team would make them with openssl.
+    struct Pki {
+        dir: tempfile::TempDir,
+        ca_key: rcgen::KeyPair,
+        ca_params: rcgen::CertificateParams,
+    }
+
+    impl Pki {
+        fn new(name: &str) -> Pki {
+            let dir = tempfile::tempdir().unwrap();
+            let ca_key = rcgen::KeyPair::generate().unwrap();
+            let mut ca_params = rcgen::CertificateParams::new(Vec::<String>::new()).unwrap();
+            ca_params.is_ca = rcgen::IsCa::Ca(rcgen::BasicConstraints::Unconstrained);
+            ca_params
+                .distinguished_name
+                .push(rcgen::DnType::CommonName, name);
+            let ca = ca_params.self_signed(&ca_key).unwrap();
+            std::fs::write(dir.path().join("ca.pem"), ca.pem()).unwrap();
+            Pki {
+                dir,
+                ca_key,
+                ca_params,
+            }
+        }
+
+        fn ca(&self) -> PathBuf {
+            self.dir.path().join("ca.pem")
+        }
+
+        /// A certificate and key for `peer`, valid for loopback, trusting
+        /// `trusted`'s CA.
+        fn peer(&self, peer: &str, trusted: &Pki) -> TlsFiles {
+            let key = rcgen::KeyPair::generate().unwrap();
+            let mut params =
+                rcgen::CertificateParams::new(vec!["127.0.0.1".to_string(), "localhost".into()])
+                    .unwrap();
+            params
+                .distinguished_name
+                .push(rcgen::DnType::CommonName, peer);
+            params.extended_key_usages = vec![
+                rcgen::ExtendedKeyUsagePurpose::ServerAuth,
+                rcgen::ExtendedKeyUsagePurpose::ClientAuth,
+            ];
+            let issuer = rcgen::Issuer::from_params(&self.ca_params, &self.ca_key);
+            let cert = params.signed_by(&key, &issuer).unwrap();
+            let certificate = self.dir.path().join(format!("{peer}.pem"));
+            let key_path = self.dir.path().join(format!("{peer}.key"));
+            std::fs::write(&certificate, cert.pem()).unwrap();
+            std::fs::write(&key_path, key.serialize_pem()).unwrap();
+            TlsFiles {
+                ca: trusted.ca(),
+                certificate,
+                key: key_path,
+                verify_name: true,
+            }
+        }
+    }
+
+    fn tls(port: u16) -> String {
+        format!("tls/127.0.0.1:{port}")
+    }
+
+    fn token(mission: &str, from: &str) -> Frame {
+        Frame::Token(BridgeMessage {
+            mission: mission.into(),
+            from: from.into(),
+            bridge: "b".into(),
+            colour: vec![],
+            seq: 1,
+        })
+    }
+
+    #[test]
+    fn certificates_make_every_link_mutual_tls_and_nothing_else() {
+        let pki = Pki::new("fleet CA");
+        let files = pki.peer("D1", &pki);
+        let c = config(&ZenohOptions {
+            listen: vec![tls(7447)],
+            connect: vec![tls(7448)],
+            scouting: false,
+            tls: Some(files.clone()),
+        })
+        .unwrap();
+        let get = |k: &str| c.get_json(k).unwrap();
+        assert_eq!(get("transport/link/tls/enable_mtls"), "true");
+        assert_eq!(get("transport/link/tls/verify_name_on_connect"), "true");
+        assert_eq!(
+            get("transport/link/tls/root_ca_certificate"),
+            json(&pki.ca().to_string_lossy())
+        );
+        for side in ["listen", "connect"] {
+            assert_eq!(
+                get(&format!("transport/link/tls/{side}_certificate")),
+                json(&files.certificate.to_string_lossy())
+            );
+            assert_eq!(
+                get(&format!("transport/link/tls/{side}_private_key")),
+                json(&files.key.to_string_lossy())
+            );
+        }
+        assert_eq!(get("transport/link/protocols"), r#"["tls"]"#);
+    }
+
+    #[test]
+    fn a_plain_tcp_endpoint_beside_certificates_is_refused() {
+        let pki = Pki::new("fleet CA");
+        let e = config(&ZenohOptions {
+            listen: vec![tls(7447)],
+            connect: vec![tcp(7448)],
+            scouting: false,
+            tls: Some(pki.peer("D1", &pki)),
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("tcp/127.0.0.1:7448") && e.contains("tls/"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_missing_key_file_is_named_in_the_error() {
+        let pki = Pki::new("fleet CA");
+        let mut files = pki.peer("D1", &pki);
+        files.key = pki.dir.path().join("nowhere/D1.key");
+        let e = config(&ZenohOptions {
+            listen: vec![tls(7447)],
+            tls: Some(files),
+            ..ZenohOptions::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("private key") && e.contains("nowhere/D1.key"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_key_given_as_the_certificate_is_named_in_the_error() {
+        let pki = Pki::new("fleet CA");
+        let mut files = pki.peer("D1", &pki);
+        files.certificate = files.key.clone();
+        let e = config(&ZenohOptions {
+            listen: vec![tls(7447)],
+            tls: Some(files.clone()),
+            ..ZenohOptions::default()
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("certificate") && e.contains(files.key.to_str().unwrap()),
+            "{e}"
+        );
+    }
+
+    async fn tls_peer(
+        mission: &str,
+        me: &str,
+        listen: u16,
+        connect: &[u16],
+        files: TlsFiles,
+    ) -> Endpoint {
+        open(
+            mission,
+            me,
+            &[],
+            &ZenohOptions {
+                listen: vec![tls(listen)],
+                connect: connect.iter().map(|p| tls(*p)).collect(),
+                scouting: false,
+                tls: Some(files),
+            },
+        )
+        .await
+        .unwrap()
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn peers_of_one_ca_meet_over_mutual_tls_and_a_peer_of_another_ca_never_joins() {
+        let fleet = Pki::new("fleet CA");
+        let intruder = Pki::new("another CA");
+        let (pa, pb, pc) = (free_port(), free_port(), free_port());
+        let mission = "TlsTest-1";
+        // C trusts the fleet's CA (its certificate is public) but holds a
+        // certificate of its own CA.
+        let a = tls_peer(mission, "D1", pa, &[pb, pc], fleet.peer("D1", &fleet)).await;
+        let b = tls_peer(mission, "D2", pb, &[pa, pc], fleet.peer("D2", &fleet)).await;
+        let mut c = tls_peer(mission, "D3", pc, &[pa, pb], intruder.peer("D3", &fleet)).await;
+
+        a.link
+            .wait_for_peers(&["D2".into()], Duration::from_secs(20))
+            .await
+            .expect("two peers of the fleet's CA meet");
+        let b_link = b.link.clone();
+        let (ta, _) = Bridges::start(
+            mission,
+            a.link.clone(),
+            a.frames,
+            RetransmitPolicy::default(),
+        );
+        let (_tb, mut rb) = Bridges::start(mission, b.link, b.frames, RetransmitPolicy::default());
+        ta.send("D2", "b1", vec![4]);
+        let got = rb.recv().await.unwrap();
+        assert_eq!((got.bridge.as_str(), got.colour), ("b1", vec![4]));
+
+        let missing = a
+            .link
+            .wait_for_peers(&["D3".into()], Duration::from_secs(3))
+            .await;
+        assert!(
+            matches!(&missing, Err(TransportError::PeersMissing { missing, .. }) if missing == &["D3".to_string()]),
+            "{missing:?}"
+        );
+        assert!(b_link
+            .wait_for_peers(&["D3".into()], Duration::from_secs(1))
+            .await
+            .is_err());
+        assert!(c
+            .link
+            .wait_for_peers(&["D1".into()], Duration::from_secs(1))
+            .await
+            .is_err());
+        // Nothing crosses either way.
+        c.link.send("D1", &token(mission, "D3")).await.unwrap();
+        a.link.send("D3", &token(mission, "D1")).await.unwrap();
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        assert!(c.frames.try_recv().is_err());
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_peer_without_a_certificate_cannot_join() {
+        let fleet = Pki::new("fleet CA");
+        let (pa, pb) = (free_port(), free_port());
+        let mission = "TlsTest-2";
+        let a = tls_peer(mission, "D1", pa, &[pb], fleet.peer("D1", &fleet)).await;
+        // A zenoh peer that trusts the fleet's CA and connects over TLS,
+        // but has no certificate to show (so it cannot listen on TLS
+        // either: D1's attempts to reach it find nobody).
+        let mut c = config(&ZenohOptions {
+            connect: vec![tls(pa)],
+            ..ZenohOptions::default()
+        })
+        .unwrap();
+        let ca = json(&fleet.ca().to_string_lossy());
+        c.insert_json5("transport/link/tls/root_ca_certificate", &ca)
+            .unwrap();
+        let stranger = zenoh::open(c).await.unwrap();
+        let _alive = stranger
+            .liveliness()
+            .declare_token(key(mission, "D2", "alive"))
+            .await
+            .unwrap();
+        let missing = a
+            .link
+            .wait_for_peers(&["D2".into()], Duration::from_secs(3))
+            .await;
+        assert!(missing.is_err(), "a peer without a certificate joined");
+        stranger
+            .put(key(mission, "D1", "bridge"), token(mission, "D2").encode())
+            .await
+            .unwrap();
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let mut frames = a.frames;
+        assert!(frames.try_recv().is_err());
     }
 }
