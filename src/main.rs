@@ -24,6 +24,8 @@ enum Command {
     Deploy(cmd::deploy::Args),
     Keygen(cmd::keygen::Args),
     SimVehicle(cmd::sim_vehicle::Args),
+    Gen(cmd::gen::Args),
+    BenchReport(cmd::bench_report::Args),
 }
 
 fn main() -> ExitCode {
@@ -36,5 +38,7 @@ fn main() -> ExitCode {
         Command::Deploy(args) => cmd::deploy::run(args),
         Command::Keygen(args) => cmd::keygen::run(args),
         Command::SimVehicle(args) => cmd::sim_vehicle::run(args),
+        Command::Gen(args) => cmd::gen::run(args),
+        Command::BenchReport(args) => cmd::bench_report::run(args),
     }
 }

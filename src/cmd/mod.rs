@@ -2,9 +2,11 @@
 //! 0 success, 1 findings (where a command has findings), 2 bad input.
 
 pub mod agent;
+pub mod bench_report;
 pub mod build;
 pub mod check;
 pub mod deploy;
+pub mod gen;
 pub mod keygen;
 pub mod run;
 pub mod sim_vehicle;
