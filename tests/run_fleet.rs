@@ -240,7 +240,7 @@ fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_
             .find(|r| r["event"] == "position");
         let log = mission_log(dir.path(), drone);
         let landed = log.iter().any(|r| {
-            r["event"] == "action_finished" && r["action"] == "Land" && r["outcome"] == "ok"
+            r["event"] == "failsafe_finished" && r["failsafe"] == "land" && r["outcome"] == "ok"
         });
         assert!(landed, "{drone} did not land: last position {last:?}");
         assert!(log.iter().any(|r| r["event"] == "time_limit"));

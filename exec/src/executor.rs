@@ -33,8 +33,10 @@ use eamos_mid::{ActionCall, ActionError, Adapter, MissionClock, Telemetry};
 use eamos_petri::net::{Colour, Guard, TransitionKind};
 use eamos_slicer::Slice;
 
+use crate::abort::CommandOpener;
 use crate::guard::World;
 use crate::journal::{self, AgentJournal, Record};
+use crate::liveness::Liveness;
 use crate::log::{DroneLog, MissionEvent};
 use crate::transport::reliable::{BridgeStats, Bridges, Delivered};
 use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
@@ -43,6 +45,8 @@ use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
 pub const END: &str = "end";
 /// The bridge name of the "a drone failed, land" notice.
 pub const ABORT: &str = "abort";
+
+mod failsafe;
 
 /// How one executor behaves around the token game.
 #[derive(Clone)]
@@ -64,6 +68,12 @@ pub struct ExecutorOptions {
     pub progress: Option<mpsc::UnboundedSender<Progress>>,
     /// Stops the executor from outside (Ctrl-C): the drone lands.
     pub stop: CancellationToken,
+    /// What this drone does when a peer it waits on is lost, and when the
+    /// mission is aborted (see [`crate::liveness`]).
+    pub liveness: Liveness,
+    /// Checks the ground station's seal on abort commands; without it an
+    /// unsigned command of this mission is obeyed (see [`crate::abort`]).
+    pub abort_opener: Option<CommandOpener>,
     /// Where this agent journals what it does, and what the journal held
     /// when it started (see [`crate::journal`]).
     pub journal: Option<AgentJournal>,
@@ -79,6 +89,8 @@ impl Default for ExecutorOptions {
             source: None,
             progress: None,
             stop: CancellationToken::new(),
+            liveness: Liveness::default(),
+            abort_opener: None,
             journal: None,
         }
     }
@@ -100,6 +112,8 @@ pub enum ProgressKind {
     Received,
     Waiting(String),
     Ended(String),
+    /// A peer lost or back, a drone stuck, an abort: a line to show.
+    Alert(String),
 }
 
 /// How a run of one slice ended.
@@ -113,6 +127,14 @@ pub enum Outcome {
     Failed { reason: String },
     /// Stopped from outside.
     Stopped,
+    /// A peer this drone waited on was lost for the grace period; the
+    /// drone went to its failsafe.
+    PeerLost {
+        lost: Vec<String>,
+        failsafe: eamos_mid::Failsafe,
+    },
+    /// The mission was aborted (a command, or a peer).
+    Aborted { reason: String },
 }
 
 /// What one executor did: the numbers of the paper's Table 7 and more.
@@ -209,6 +231,8 @@ pub struct Executor {
     /// when its final place is marked, the others by their `end` notice).
     ends_reached: HashSet<String>,
     first_firing: Option<f64>,
+    /// Who is lost, who this drone is stuck on, whether its failsafe ran.
+    alive: failsafe::State,
 }
 
 impl Executor {
@@ -277,6 +301,7 @@ impl Executor {
             ended: None,
             ends_reached: HashSet::new(),
             first_firing: None,
+            alive: failsafe::State::default(),
         };
         executor.recover();
         executor
@@ -516,12 +541,19 @@ impl Executor {
         }
 
         let deadline = self.options.max_duration.map(|d| started + d);
+        let mut presence = self.link.presence();
+        if let Some(p) = presence.as_mut() {
+            let now = p.borrow_and_update().clone();
+            self.on_presence(now);
+        }
         while self.ended.is_none() {
             self.fire_until_quiescent();
+            self.check_lost();
             if self.ended.is_some() {
                 break;
             }
             let next_timer = self.next_timer();
+            let grace_ends = self.grace_ends();
             let clock = self.clock.clone();
             let stop = self.options.stop.clone();
             tokio::select! {
@@ -542,6 +574,11 @@ impl Executor {
                     }
                 }
                 _ = sleep_until(&clock, next_timer) => {}
+                p = failsafe::presence_changed(&mut presence) => match p {
+                    Some(now) => self.on_presence(now),
+                    None => presence = None,
+                },
+                _ = sleep_until(&clock, grace_ends) => {}
                 _ = sleep_until(&clock, deadline) => {
                     let waiting = self.waiting();
                     self.note(MissionEvent::TimeLimit { waiting: waiting.clone() });
@@ -554,7 +591,12 @@ impl Executor {
 
         if !matches!(outcome, Outcome::Completed) {
             self.cancel_all();
-            self.land().await;
+            if outcome == Outcome::Stopped {
+                // Stopped here (Ctrl-C): the mission cannot go on, so
+                // every peer is told, as for a failed action.
+                self.abort_peers(None, Vec::new());
+            }
+            self.failsafe_at_end(&outcome).await;
         }
         publisher.cancel();
         let unacked = self.bridges.flush(self.options.flush_timeout).await;
@@ -563,6 +605,10 @@ impl Executor {
             Outcome::TimeLimit { .. } => "time limit".to_string(),
             Outcome::Failed { reason } => format!("failed: {reason}"),
             Outcome::Stopped => "stopped".to_string(),
+            Outcome::PeerLost { lost, failsafe } => {
+                format!("lost {}: {failsafe}", lost.join(", "))
+            }
+            Outcome::Aborted { reason } => format!("aborted: {reason}"),
         };
         self.note(MissionEvent::Stopped {
             reason: reason.clone(),
@@ -905,9 +951,11 @@ impl Executor {
                 return;
             }
             ABORT => {
-                self.ended = Some(Outcome::Failed {
-                    reason: format!("{} aborted the mission", d.from),
-                });
+                self.on_abort(&d.from, &d.colour);
+                return;
+            }
+            b if crate::liveness::read_stuck_notice(b).is_some() => {
+                self.on_stuck_notice(&d.from, &d.bridge);
                 return;
             }
             _ => {}
@@ -973,46 +1021,6 @@ impl Executor {
         for (_, token) in self.running.drain() {
             token.cancel();
         }
-    }
-
-    /// Lands the drone if it is in the air (time limit, failure, stop).
-    async fn land(&mut self) {
-        let Some(drone) = self.drone.clone() else {
-            return;
-        };
-        let airborne = !drone.telemetry().borrow().landed;
-        if !airborne {
-            return;
-        }
-        let call = ActionCall::new("Land", Vec::<f64>::new());
-        self.note(MissionEvent::ActionStarted {
-            action: "Land".into(),
-            args: vec![],
-            instance: u32::MAX,
-            colour: vec![],
-        });
-        let result = tokio::time::timeout(
-            Duration::from_secs(120),
-            drone.run(&call, CancellationToken::new()),
-        )
-        .await
-        .unwrap_or_else(|_| {
-            Err(ActionError::Timeout {
-                action: "Land".into(),
-                what: "touchdown".into(),
-            })
-        });
-        let (outcome, error) = match &result {
-            Ok(()) => ("ok".to_string(), None),
-            Err(e) => (e.kind().to_string(), Some(e.to_string())),
-        };
-        self.note(MissionEvent::ActionFinished {
-            action: "Land".into(),
-            instance: u32::MAX,
-            colour: vec![],
-            outcome,
-            error,
-        });
     }
 
     /// What the slice is waiting for: transitions that have their tokens

@@ -18,9 +18,15 @@
 //! [rollout]                        # where `eamos deploy` meets the agents
 //! listen = ["tcp/127.0.0.1:7400"]  # the ground station listens there
 //!
+//! [failsafe]                       # liveness and abort (fleet-wide)
+//! on_lost = "land"                 # hold | land | home | abort
+//! grace = "5s"                     # mission time a lost peer has to come back
+//! on_abort = "land"                # land | home | hold
+//!
 //! [drones.D1]
 //! adapter = "sim"                  # the default
 //! home = { x = 0.0, y = 0.0, z = 0.0 }
+//! on_lost = "home"                 # this drone's own policy
 //!
 //! [drones.D3]
 //! home = { x = 0.0, y = 4.0, z = 0.0 }
@@ -56,8 +62,9 @@ use eamos_mid::mavlink::{ConnectAddress, MavlinkSettings};
 use eamos_mid::sim::kinematics::MultirotorConfig;
 use eamos_mid::sim::script::Script;
 use eamos_mid::sim::{SimConfig, SimDroneSpec};
-use eamos_mid::Vec3;
+use eamos_mid::{Failsafe, Vec3};
 
+use crate::liveness::{Grace, Liveness, OnLost};
 use crate::transport::zenoh::ZenohOptions;
 use crate::transport::GCS;
 
@@ -87,6 +94,28 @@ pub struct Fleet {
     /// identity (see [`crate::identity`]); empty when there is no file.
     #[serde(skip)]
     pub digest: String,
+    /// What drones do when a peer they wait on is lost, and when the
+    /// mission is aborted: the fleet's defaults (see [`crate::liveness`]).
+    #[serde(default)]
+    pub failsafe: FailsafeSettings,
+}
+
+/// The fleet-wide liveness and abort policy; each drone may override it
+/// with the same keys in its own table.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FailsafeSettings {
+    /// `hold`, `land`, `home` or `abort` (default `land`).
+    #[serde(default)]
+    pub on_lost: Option<OnLost>,
+    /// How long a lost peer has to come back, in mission seconds or with a
+    /// unit (`"5s"`, `"500ms"`; default 5 s).
+    #[serde(default)]
+    pub grace: Option<Grace>,
+    /// Where a drone goes when the mission is aborted or stopped: `land`
+    /// (the default), `home` or `hold`.
+    #[serde(default)]
+    pub on_abort: Option<Failsafe>,
 }
 
 /// The ground station's signing key, as agents know it.
@@ -159,6 +188,14 @@ pub struct DroneEntry {
     /// to the `zenoh` table.
     #[serde(default, rename = "listen", deserialize_with = "moved_to_zenoh")]
     moved_listen: Option<()>,
+    /// This drone's policy when a peer it waits on is lost (overrides
+    /// `[failsafe]`).
+    #[serde(default)]
+    pub on_lost: Option<OnLost>,
+    #[serde(default)]
+    pub grace: Option<Grace>,
+    #[serde(default)]
+    pub on_abort: Option<Failsafe>,
 }
 
 /// A drone's `connect` is a MAVLink connection string; a list is the old
@@ -291,6 +328,22 @@ impl Fleet {
         fleet.check_tls(name, drones)?;
         fleet.digest = crate::identity::fleet_digest(text);
         Ok(fleet)
+    }
+
+    /// The liveness policy of a peer: its own keys, else the fleet's
+    /// `[failsafe]` table, else the defaults (land after 5 s).
+    pub fn liveness(&self, peer: &str) -> Liveness {
+        let e = self.drones.get(peer);
+        let d = Liveness::default();
+        let f = &self.failsafe;
+        Liveness {
+            on_lost: e.and_then(|e| e.on_lost).or(f.on_lost).unwrap_or(d.on_lost),
+            grace: e.and_then(|e| e.grace).or(f.grace).map_or(d.grace, |g| g.0),
+            on_abort: e
+                .and_then(|e| e.on_abort)
+                .or(f.on_abort)
+                .unwrap_or(d.on_abort),
+        }
     }
 
     pub fn entry(&self, drone: &str) -> DroneEntry {
@@ -601,6 +654,43 @@ connection = "/dev/ttyUSB0:57600"
         let msg = e.to_string();
         assert!(msg.contains("line 2"), "{msg}");
         assert!(msg.contains("`zenoh = { listen = [...] }`"), "{msg}");
+    }
+
+    #[test]
+    fn a_drone_follows_its_own_policy_else_the_fleets_else_lands_after_five_seconds() {
+        let f = Fleet::parse(
+            "[failsafe]\non_lost = \"hold\"\ngrace = \"2s\"\n\n[drones.D1]\non_lost = \"home\"\ngrace = 0.5\non_abort = \"home\"\n",
+            "f.toml",
+            "M",
+            &drones(),
+        )
+        .unwrap();
+        let d1 = f.liveness("D1");
+        assert_eq!(
+            (d1.on_lost, d1.grace, d1.on_abort),
+            (OnLost::Home, 0.5, Failsafe::Home)
+        );
+        let d2 = f.liveness("D2");
+        assert_eq!(
+            (d2.on_lost, d2.grace, d2.on_abort),
+            (OnLost::Hold, 2.0, Failsafe::Land)
+        );
+        assert_eq!(Fleet::default().liveness("D3"), Liveness::default());
+        assert_eq!(Liveness::default().on_lost, OnLost::Land);
+        assert_eq!(Liveness::default().grace, 5.0);
+    }
+
+    #[test]
+    fn an_unknown_policy_or_a_bad_grace_period_is_reported_with_its_line() {
+        for (text, what) in [
+            ("[drones.D1]\non_lost = \"panic\"\n", "panic"),
+            ("[drones.D1]\ngrace = \"5 parsecs\"\n", "parsecs"),
+            ("[failsafe]\non_abort = \"abort\"\n", "abort"),
+        ] {
+            let e = Fleet::parse(text, "f.toml", "M", &drones()).unwrap_err();
+            let msg = e.to_string();
+            assert!(msg.contains("line 2") && msg.contains(what), "{msg}");
+        }
     }
 
     #[test]

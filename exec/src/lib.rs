@@ -3,6 +3,9 @@
 //! channels or zenoh).
 //!
 //! - [`transport`]: links between peers and exactly-once bridges over them.
+//! - [`liveness`]: who is up, who is lost, and what a drone waiting on a
+//!   lost peer does (its fleet's policy).
+//! - [`abort`]: `eamos abort` and the abort command every drone obeys.
 //! - [`executor`]: the token game of one slice, played with a real adapter.
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
@@ -14,12 +17,14 @@
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
 
+pub mod abort;
 pub mod deploy;
 pub mod executor;
 pub mod fleet;
 pub mod guard;
 pub mod identity;
 pub mod journal;
+pub mod liveness;
 pub mod log;
 pub mod runner;
 pub mod svg;

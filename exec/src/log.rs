@@ -118,6 +118,39 @@ pub enum MissionEvent {
     TimeLimit { waiting: Vec<String> },
     /// The executor stopped.
     Stopped { reason: String },
+    /// A peer seen up has gone (its liveliness token was deleted).
+    PeerLost { peer: String },
+    /// A lost peer is up again.
+    PeerBack { peer: String },
+    /// This drone waits on peers lost for the grace period and follows
+    /// its policy (`hold`, `land`, `home`, `abort`).
+    Stuck { lost: Vec<String>, policy: String },
+    /// A peer told this one (the ground station) that it is stuck on a
+    /// lost peer, and what it does about it.
+    PeerStuck {
+        drone: String,
+        lost: String,
+        policy: String,
+    },
+    /// An abort was obeyed: every action is cancelled, the drone goes to
+    /// its failsafe, every other peer is told.
+    AbortReceived { from: String, reason: String },
+    /// An abort was refused (another mission, not signed by the ground
+    /// station, garbled); the flight goes on.
+    AbortRefused { from: String, reason: String },
+    /// The drone goes to its failsafe (once per run at most).
+    Failsafe {
+        failsafe: String,
+        reason: String,
+        airborne: bool,
+    },
+    /// How the failsafe ended (`ok`, or the error kind).
+    FailsafeFinished {
+        failsafe: String,
+        outcome: String,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        error: Option<String>,
+    },
 }
 
 enum Line {

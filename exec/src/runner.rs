@@ -20,11 +20,13 @@ use eamos_mid::{Adapter, Airframe, MissionClock, SimDrone, SimFleet, Uniform, Ve
 use eamos_profile::ProfileTable;
 use eamos_slicer::Slices;
 
+use crate::abort::CommandOpener;
 use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
 use crate::fleet::{AdapterKind, Fleet};
 use crate::journal::{self, AgentJournal, JournalError};
+use crate::liveness::Liveness;
 use crate::log::{DroneLog, LogWriter};
-use crate::transport::faulty::{Faults, FaultyLink};
+use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
 use crate::transport::{zenoh, Endpoint, TransportError, GCS};
@@ -65,6 +67,10 @@ pub struct RunOptions {
     /// simulated drone its airframe: a peer started again with the same
     /// directory resumes where it was (see [`crate::journal`]).
     pub journal: Option<PathBuf>,
+    /// Cuts peers off the network on demand (tests of lost peers).
+    pub partition: Option<Partition>,
+    /// Checks the ground station's seal on abort commands.
+    pub abort_opener: Option<CommandOpener>,
 }
 
 impl Default for RunOptions {
@@ -83,6 +89,8 @@ impl Default for RunOptions {
             linger: Duration::from_secs(2),
             seed: 0,
             journal: None,
+            partition: None,
+            abort_opener: None,
         }
     }
 }
@@ -378,6 +386,14 @@ async fn endpoint(
     Ok(e)
 }
 
+/// The link of `e` subject to the run's partition, if it has one.
+fn partitioned(mut e: Endpoint, options: &RunOptions) -> Endpoint {
+    if let Some(p) = &options.partition {
+        e.link = Arc::new(FaultyLink::new(e.link, Faults::default()).with_partition(p.clone()));
+    }
+    e
+}
+
 /// Records each drone's path: a point whenever it has moved 5 cm.
 fn record_paths(
     adapters: &BTreeMap<String, Arc<dyn Adapter>>,
@@ -419,6 +435,8 @@ fn executor_options(slices: &Slices, options: &RunOptions) -> ExecutorOptions {
         progress: options.progress.clone(),
         stop: options.stop.clone(),
         journal: None,
+        liveness: Liveness::default(),
+        abort_opener: options.abort_opener.clone(),
     }
 }
 
@@ -447,7 +465,8 @@ pub async fn run_fleet(
                 &hub,
                 options.faults,
             )
-            .await?,
+            .await
+            .map(|e| partitioned(e, options))?,
         );
     }
     let drones = slices.distributed.drones.clone();
@@ -477,6 +496,7 @@ pub async fn run_fleet(
         };
         let mut exec_options = executor_options(slices, options);
         exec_options.journal = journal.cloned();
+        exec_options.liveness = fleet.liveness(&peer);
         let exec = Executor::new(agent, exec_options);
         tasks.push(tokio::spawn(exec.run()));
     }
@@ -539,7 +559,8 @@ pub async fn run_peer(
         &hub,
         options.faults,
     )
-    .await?;
+    .await
+    .map(|e| partitioned(e, options))?;
     let journal = journals.get(peer);
     let (b, delivered) = start_bridges(slices, e.link.clone(), e.frames, options, journal);
     let b = Arc::new(b);
@@ -555,6 +576,7 @@ pub async fn run_peer(
     };
     let mut exec_options = executor_options(slices, options);
     exec_options.journal = journal.cloned();
+    exec_options.liveness = fleet.liveness(peer);
     let report = Executor::new(agent, exec_options).run().await;
     // Peers whose acknowledgement from us was lost retransmit: stay a
     // moment to acknowledge them again.

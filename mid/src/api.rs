@@ -445,6 +445,14 @@ pub trait Adapter: Send + Sync {
     /// also reports the outcome.
     async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError>;
 
+    /// Puts the drone into a failsafe (the mission was aborted, or a peer
+    /// it waits on was lost). The default flies the adapter's own `Land`
+    /// and `ReturnHome` actions (see [`crate::failsafe::fly`]); an adapter
+    /// whose platform has a better native failsafe may override it.
+    async fn failsafe(&self, kind: crate::failsafe::Failsafe) -> Result<(), ActionError> {
+        crate::failsafe::fly(self, kind).await
+    }
+
     /// The point relative moves (`FlyByX`, `ReturnHome`'s height) start
     /// from now, in the local frame. An agent that journals a motion records
     /// the absolute target computed from it, so that a motion interrupted by

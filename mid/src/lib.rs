@@ -15,6 +15,7 @@
 
 pub mod api;
 pub mod clock;
+pub mod failsafe;
 pub mod log;
 pub mod mavlink;
 pub mod profiles;
@@ -26,6 +27,7 @@ pub use api::{
     FlightMode, MultirotorAction, PropertyArg, PropertyError, Telemetry, Value, Vec3,
 };
 pub use clock::MissionClock;
+pub use failsafe::Failsafe;
 pub use log::{LogRecord, LogSink, MemorySink, NullSink, SharedSink};
 pub use sim::{Airframe, SimConfig, SimDrone, SimDroneSpec, SimError, SimFleet};
 pub use uniform::Uniform;

@@ -1,6 +1,7 @@
 //! One module per subcommand. Each returns the process exit status:
 //! 0 success, 1 findings (where a command has findings), 2 bad input.
 
+pub mod abort;
 pub mod agent;
 pub mod bench_report;
 pub mod build;

@@ -133,6 +133,21 @@ pub fn run(args: Args) -> ExitCode {
     };
     // Peers built from another mission or fleet file refuse this one.
     eamos_exec::identity::bind(&mut slices, &fleet);
+    // With the ground station's public key, abort commands must be sealed
+    // by its secret key (`eamos abort --key`).
+    let abort_opener = match (&fleet.keys.gcs, &args.fleet) {
+        (Some(key), Some(fleet_path)) => {
+            let path = match fleet_path.parent() {
+                Some(dir) if key.is_relative() => dir.join(key),
+                _ => key.clone(),
+            };
+            match eamos_seal::PublicKey::load(&path) {
+                Ok(k) => Some(eamos_exec::abort::opener(k)),
+                Err(e) => return bad_input(&format!("[keys] gcs: {e}")),
+            }
+        }
+        _ => None,
+    };
     let peer = match (&args.drone, args.gcs) {
         (Some(d), _) => {
             if !net.drones.contains(d) {
@@ -173,6 +188,7 @@ pub fn run(args: Args) -> ExitCode {
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
         seed: args.seed,
         journal: args.journal.clone(),
+        abort_opener,
         ..RunOptions::default()
     };
     let shown: Vec<String> = match &peer {
@@ -183,7 +199,7 @@ pub fn run(args: Args) -> ExitCode {
         let stop = options.stop.clone();
         tokio::spawn(async move {
             if tokio::signal::ctrl_c().await.is_ok() {
-                eprintln!("stopping: every drone lands");
+                eprintln!("stopping: every drone goes to its failsafe");
                 stop.cancel();
             }
         });
@@ -303,6 +319,16 @@ async fn show_progress(
                 continue_line(c)
             }
             ProgressKind::Waiting(cond) => format!("waits for {cond}"),
+            ProgressKind::Alert(alert) => {
+                // Lost peers, stuck drones, aborts: kept on screen.
+                let line = format!("[{:>8.2} s] {:>width$} {alert}", p.time, p.drone);
+                if tty {
+                    let _ = multi.println(line);
+                } else {
+                    eprintln!("{line}");
+                }
+                continue;
+            }
             ProgressKind::Ended(reason) => {
                 bar.finish_with_message(format!("{reason} ({})", continue_line(c)));
                 if !tty {
@@ -356,6 +382,8 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
             Outcome::TimeLimit { .. } => "time limit",
             Outcome::Failed { .. } => "failed",
             Outcome::Stopped => "stopped",
+            Outcome::PeerLost { .. } => "peer lost",
+            Outcome::Aborted { .. } => "aborted",
         };
         println!(
             "{:<8} {:<12} {:>8} {:>10} {:>10} {:>8.1} s{}",
@@ -384,6 +412,12 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
                 }
             }
             Outcome::Failed { reason } => println!("{}: {reason}", r.drone),
+            Outcome::Aborted { reason } => println!("{}: {reason}", r.drone),
+            Outcome::PeerLost { lost, failsafe } => println!(
+                "{}: waited on {}, lost; went to its failsafe ({failsafe})",
+                r.drone,
+                lost.join(", ")
+            ),
             _ => {}
         }
     }

@@ -4,13 +4,20 @@
 //!
 //! Telemetry passes unharmed: it is a latest-value stream that the next
 //! sample repairs, while losing a bridge token would lose the mission.
+//!
+//! A [`Partition`] shared by the links of a fleet cuts peers off the
+//! network on demand, as a radio out of range would: nothing the cut peer
+//! sends or is sent gets through, its telemetry is lost, and the presence
+//! each side sees loses the other (the cut peer sees itself alone).
 
+use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use async_trait::async_trait;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use tokio::sync::watch;
 
 use super::{Frame, Link, PeerId, TelemetryFrame, TransportError};
 
@@ -51,6 +58,55 @@ pub struct FaultyLink {
     faults: Faults,
     rng: Mutex<ChaCha8Rng>,
     counts: Arc<Mutex<FaultCounts>>,
+    partition: Option<Partition>,
+}
+
+/// Which peers are cut off the network; shared by every link of a fleet.
+#[derive(Clone)]
+pub struct Partition {
+    cut: Arc<watch::Sender<BTreeSet<PeerId>>>,
+}
+
+impl Default for Partition {
+    fn default() -> Self {
+        Partition {
+            cut: Arc::new(watch::channel(BTreeSet::new()).0),
+        }
+    }
+}
+
+impl Partition {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Cuts `peer` off: from now on it reaches nobody and nobody reaches it.
+    pub fn cut(&self, peer: &str) {
+        self.cut.send_modify(|c| {
+            c.insert(peer.to_string());
+        });
+    }
+
+    /// Puts `peer` back on the network.
+    pub fn heal(&self, peer: &str) {
+        self.cut.send_modify(|c| {
+            c.remove(peer);
+        });
+    }
+
+    /// Whether `a` and `b` cannot hear each other.
+    pub fn separates(&self, a: &str, b: &str) -> bool {
+        let cut = self.cut.borrow();
+        a != b && (cut.contains(a) || cut.contains(b))
+    }
+
+    /// What `me` sees of `up` through the partition.
+    fn visible(&self, me: &str, up: &BTreeSet<PeerId>) -> BTreeSet<PeerId> {
+        up.iter()
+            .filter(|p| !self.separates(me, p))
+            .cloned()
+            .collect()
+    }
 }
 
 impl FaultyLink {
@@ -60,7 +116,20 @@ impl FaultyLink {
             faults,
             rng: Mutex::new(ChaCha8Rng::seed_from_u64(faults.seed)),
             counts: Arc::default(),
+            partition: None,
         }
+    }
+
+    /// The same link, subject to `partition` as well.
+    pub fn with_partition(mut self, partition: Partition) -> Self {
+        self.partition = Some(partition);
+        self
+    }
+
+    fn cut_from(&self, to: &str) -> bool {
+        self.partition
+            .as_ref()
+            .is_some_and(|p| p.separates(self.inner.me(), to))
     }
 
     /// A handle on the counts that stays valid after the link moves.
@@ -107,6 +176,10 @@ impl Link for FaultyLink {
     }
 
     async fn send(&self, to: &str, frame: &Frame) -> Result<(), TransportError> {
+        if self.cut_from(to) {
+            self.counts.lock().expect("counts lock").dropped += 1;
+            return Ok(());
+        }
         match self.fate() {
             Fate::Drop => Ok(()),
             Fate::Send {
@@ -137,6 +210,12 @@ impl Link for FaultyLink {
     }
 
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
+        let me = self.inner.me();
+        if let Some(p) = &self.partition {
+            if p.cut.borrow().contains(me) {
+                return Ok(());
+            }
+        }
         self.inner.publish_telemetry(sample).await
     }
 
@@ -146,6 +225,35 @@ impl Link for FaultyLink {
         timeout: Duration,
     ) -> Result<(), TransportError> {
         self.inner.wait_for_peers(peers, timeout).await
+    }
+
+    /// The inner link's presence as seen through the partition, kept up to
+    /// date as either changes.
+    fn presence(&self) -> Option<watch::Receiver<BTreeSet<PeerId>>> {
+        let mut inner = self.inner.presence()?;
+        let Some(partition) = self.partition.clone() else {
+            return Some(inner);
+        };
+        let me = self.inner.me().to_string();
+        let mut cut = partition.cut.subscribe();
+        let (tx, rx) = watch::channel(partition.visible(&me, &inner.borrow_and_update()));
+        tokio::spawn(async move {
+            loop {
+                tokio::select! {
+                    r = inner.changed() => if r.is_err() { return },
+                    r = cut.changed() => if r.is_err() { return },
+                    _ = tx.closed() => return,
+                }
+                let now = partition.visible(&me, &inner.borrow_and_update());
+                cut.borrow_and_update();
+                tx.send_if_modified(|v| {
+                    let changed = *v != now;
+                    *v = now;
+                    changed
+                });
+            }
+        });
+        Some(rx)
     }
 }
 
@@ -206,6 +314,41 @@ mod tests {
         let (a, _) = received_after(faults, 200).await;
         let (b, _) = received_after(faults, 200).await;
         assert_eq!(a, b);
+    }
+
+    #[tokio::test]
+    async fn a_cut_peer_reaches_nobody_is_reached_by_nobody_and_sees_itself_alone() {
+        let hub = InProcessHub::new();
+        let partition = Partition::new();
+        let wrap = |e: crate::transport::Endpoint| {
+            let link: Arc<dyn Link> = Arc::new(
+                FaultyLink::new(e.link.clone(), Faults::default())
+                    .with_partition(partition.clone()),
+            );
+            (link, e.frames)
+        };
+        let (a, mut a_frames) = wrap(hub.connect("D1", &[]));
+        let (b, mut b_frames) = wrap(hub.connect("D2", &[]));
+        let (_c, _) = wrap(hub.connect("D3", &[]));
+        let mut a_sees = a.presence().unwrap();
+        let mut b_sees = b.presence().unwrap();
+        assert_eq!(a_sees.borrow_and_update().len(), 3);
+
+        partition.cut("D2");
+        a.send("D2", &token(1)).await.unwrap();
+        b.send("D1", &token(2)).await.unwrap();
+        a_sees.changed().await.unwrap();
+        assert!(!a_sees.borrow().contains("D2"));
+        b_sees.changed().await.unwrap();
+        let alone: Vec<PeerId> = b_sees.borrow().iter().cloned().collect();
+        assert_eq!(alone, vec!["D2".to_string()]);
+        assert!(a_frames.try_recv().is_err() && b_frames.try_recv().is_err());
+
+        partition.heal("D2");
+        a_sees.changed().await.unwrap();
+        assert!(a_sees.borrow().contains("D2"));
+        a.send("D2", &token(3)).await.unwrap();
+        assert_eq!(b_frames.recv().await.unwrap(), token(3));
     }
 
     #[tokio::test]

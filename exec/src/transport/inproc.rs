@@ -2,12 +2,12 @@
 //! tokio channels. It never loses a frame by itself; wrap it in
 //! [`super::faulty::FaultyLink`] to test what the network would do.
 
-use std::collections::HashMap;
+use std::collections::{BTreeSet, HashMap};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use async_trait::async_trait;
-use tokio::sync::{mpsc, Notify};
+use tokio::sync::{mpsc, watch, Notify};
 
 use super::{Endpoint, Frame, Link, PeerId, TelemetryFrame, TransportError};
 
@@ -17,10 +17,21 @@ pub struct InProcessHub {
     inner: Arc<HubInner>,
 }
 
-#[derive(Default)]
 struct HubInner {
     state: Mutex<HubState>,
     joined: Notify,
+    /// Who is connected: the in-process stand-in for zenoh liveliness.
+    presence: watch::Sender<BTreeSet<PeerId>>,
+}
+
+impl Default for HubInner {
+    fn default() -> Self {
+        HubInner {
+            state: Mutex::default(),
+            joined: Notify::new(),
+            presence: watch::channel(BTreeSet::new()).0,
+        }
+    }
 }
 
 #[derive(Default)]
@@ -52,6 +63,9 @@ impl InProcessHub {
                     .push(telemetry_tx.clone());
             }
         }
+        self.inner.presence.send_modify(|p| {
+            p.insert(me.to_string());
+        });
         self.inner.joined.notify_waiters();
         Endpoint {
             link: Arc::new(InProcessLink {
@@ -61,6 +75,22 @@ impl InProcessHub {
             frames,
             telemetry,
         }
+    }
+}
+
+impl InProcessHub {
+    /// Takes `peer` off the hub, as if its process had died: frames to it
+    /// are lost and the others see it gone. It may [`connect`] again.
+    ///
+    /// [`connect`]: InProcessHub::connect
+    pub fn leave(&self, peer: &str) {
+        {
+            let mut state = self.inner.state.lock().expect("hub lock");
+            state.peers.remove(peer);
+        }
+        self.inner.presence.send_modify(|p| {
+            p.remove(peer);
+        });
     }
 }
 
@@ -120,6 +150,10 @@ impl Link for InProcessLink {
                 });
             }
         }
+    }
+
+    fn presence(&self) -> Option<watch::Receiver<BTreeSet<PeerId>>> {
+        Some(self.hub.presence.subscribe())
     }
 }
 
@@ -199,6 +233,22 @@ mod tests {
             .await
             .unwrap();
         late.await.unwrap();
+    }
+
+    #[tokio::test]
+    async fn a_peer_that_leaves_the_hub_disappears_from_everyones_presence() {
+        let hub = InProcessHub::new();
+        let a = hub.connect("D1", &[]);
+        let _b = hub.connect("D2", &[]);
+        let mut presence = a.link.presence().expect("the hub tells who is up");
+        assert_eq!(presence.borrow_and_update().len(), 2);
+        hub.leave("D2");
+        presence.changed().await.unwrap();
+        let now: Vec<PeerId> = presence.borrow().iter().cloned().collect();
+        assert_eq!(now, vec!["D1".to_string()]);
+        let _back = hub.connect("D2", &[]);
+        presence.changed().await.unwrap();
+        assert!(presence.borrow().contains("D2"));
     }
 
     #[tokio::test]

@@ -12,11 +12,12 @@
 //! [`zenoh`] (peer to peer over the network) and [`faulty`] (a wrapper that
 //! loses, duplicates and reorders frames on purpose, for tests).
 
+use std::collections::BTreeSet;
 use std::time::Duration;
 
 use async_trait::async_trait;
 use serde::{Deserialize, Serialize};
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 
 use eamos_petri::net::Colour;
 
@@ -145,6 +146,13 @@ pub trait Link: Send + Sync + 'static {
         peers: &[PeerId],
         timeout: Duration,
     ) -> Result<(), TransportError>;
+
+    /// The peers up right now (this one included), updated as they come
+    /// and go: zenoh liveliness tokens, or the in-process hub's members.
+    /// `None` for a link that cannot tell; its peers are never lost.
+    fn presence(&self) -> Option<watch::Receiver<BTreeSet<PeerId>>> {
+        None
+    }
 }
 
 /// One peer's end of a link: the sending half, the frames addressed to it

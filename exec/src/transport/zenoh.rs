@@ -21,13 +21,13 @@
 //! links are then refused at both ends (zenoh's protocol whitelist holds
 //! only `tls`), so a misconfigured peer cannot fall back to clear text.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use async_trait::async_trait;
-use tokio::sync::{mpsc, Notify};
+use tokio::sync::{mpsc, watch, Notify};
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::SampleKind;
@@ -230,6 +230,8 @@ pub async fn open(
     // Who is up: every peer declares a liveliness token once its own
     // subscribers exist, so a peer seen alive can receive.
     let alive = Arc::new(Alive::default());
+    let presence = Arc::new(watch::channel(BTreeSet::new()).0);
+    let presence_tx = presence.clone();
     let seen = alive.clone();
     let prefix = format!("eamos/{mission}/");
     let alive_sub = session
@@ -253,6 +255,7 @@ pub async fn open(
                     peers.remove(peer);
                 }
             }
+            presence_tx.send_replace(peers.iter().cloned().collect());
             seen.changed.notify_waiters();
         })
         .await
@@ -274,6 +277,7 @@ pub async fn open(
         _alive_subscriber: alive_sub,
         _token: token,
         _version: version,
+        presence,
     };
     Ok(Endpoint {
         link: Arc::new(link),
@@ -297,6 +301,8 @@ struct ZenohLink {
     /// Declared once per key and reused: declaring is a network round.
     publishers: tokio::sync::Mutex<HashMap<String, Publisher<'static>>>,
     alive: Arc<Alive>,
+    /// The peers whose liveliness token is up (see [`Link::presence`]).
+    presence: Arc<watch::Sender<BTreeSet<PeerId>>>,
     _subscribers: Vec<Subscriber<()>>,
     _alive_subscriber: Subscriber<()>,
     _token: LivelinessToken,
@@ -378,6 +384,10 @@ impl Link for ZenohLink {
                 });
             }
         }
+    }
+
+    fn presence(&self) -> Option<watch::Receiver<BTreeSet<PeerId>>> {
+        Some(self.presence.subscribe())
     }
 }
 

@@ -1,0 +1,270 @@
+//! The executor's side of liveness and abort (see [`crate::liveness`] and
+//! [`crate::abort`]): watching who is up, deciding when this drone is
+//! stuck on a lost peer, obeying and passing on aborts, and flying the
+//! failsafe exactly once per run.
+
+use std::collections::BTreeSet;
+use std::time::Duration;
+
+use tokio::sync::watch;
+
+use eamos_mid::{ActionError, Failsafe};
+use eamos_petri::net::Colour;
+
+use super::{Executor, Outcome, ProgressKind, ABORT};
+use crate::abort;
+use crate::liveness::{self, Change, OnLost, Watch};
+use crate::log::MissionEvent;
+use crate::transport::{PeerId, GCS};
+
+/// How long a failsafe may take before the executor gives up waiting on it
+/// (wall time; a landing from altitude takes a while).
+const FAILSAFE_TIMEOUT: Duration = Duration::from_secs(300);
+
+#[derive(Debug, Default)]
+pub(super) struct State {
+    watch: Watch,
+    /// Lost peers this drone already acted on (a holding drone does not
+    /// hold again); forgotten when the peer comes back.
+    stuck_on: BTreeSet<PeerId>,
+    /// The failsafe ran: it never runs twice in one run, whatever ends it.
+    failsafe_done: bool,
+}
+
+/// The next presence set, or `None` once the link stops telling.
+pub(super) async fn presence_changed(
+    rx: &mut Option<watch::Receiver<BTreeSet<PeerId>>>,
+) -> Option<BTreeSet<PeerId>> {
+    match rx {
+        Some(rx) => match rx.changed().await {
+            Ok(()) => Some(rx.borrow_and_update().clone()),
+            Err(_) => None,
+        },
+        None => std::future::pending().await,
+    }
+}
+
+impl Executor {
+    fn alert(&self, line: String) {
+        self.progress(ProgressKind::Alert(line));
+    }
+
+    /// Takes the peers up now (only the mission's peers count: a passing
+    /// `eamos abort` is nobody's peer).
+    pub(super) fn on_presence(&mut self, up: BTreeSet<PeerId>) {
+        let up: BTreeSet<PeerId> = up
+            .into_iter()
+            .filter(|p| self.options.peers.contains(p))
+            .collect();
+        let now = self.now();
+        let me = self.me().to_string();
+        for change in self.alive.watch.update(&me, &up, now) {
+            match change {
+                Change::Lost(peer) => {
+                    self.note(MissionEvent::PeerLost { peer: peer.clone() });
+                    self.alert(format!("lost {peer}"));
+                }
+                Change::Back(peer) => {
+                    self.alive.stuck_on.remove(&peer);
+                    self.note(MissionEvent::PeerBack { peer: peer.clone() });
+                    self.alert(format!("{peer} is back"));
+                }
+            }
+        }
+    }
+
+    /// When the grace period of the next lost peer ends.
+    pub(super) fn grace_ends(&self) -> Option<f64> {
+        self.alive
+            .watch
+            .next_deadline(self.options.liveness.grace, self.now())
+    }
+
+    /// Applies the fleet's policy if this drone, with nothing left to do on
+    /// its own, waits on a peer lost for the grace period (or has lost every
+    /// peer, the ground station included, and must decide alone).
+    pub(super) fn check_lost(&mut self) {
+        if self.ended.is_some() {
+            return;
+        }
+        let lost = self
+            .alive
+            .watch
+            .lost_for(self.options.liveness.grace, self.now());
+        if lost.is_empty() {
+            return;
+        }
+        let idle = self.running.is_empty() && self.next_timer().is_none();
+        if !idle {
+            return;
+        }
+        let me = self.me().to_string();
+        let mut on: BTreeSet<PeerId> = liveness::waits_on(&self.slice, &self.marking)
+            .intersection(&lost)
+            .cloned()
+            .collect();
+        let mut others = self.options.peers.iter().filter(|p| **p != me).peekable();
+        let isolated = others.peek().is_some() && others.all(|p| lost.contains(p));
+        if isolated && self.drone.is_some() {
+            on.extend(lost.iter().cloned());
+        }
+        on.retain(|p| !self.alive.stuck_on.contains(p));
+        if on.is_empty() {
+            return;
+        }
+        self.alive.stuck_on.extend(on.iter().cloned());
+        let policy = self.options.liveness.on_lost;
+        let lost: Vec<String> = on.into_iter().collect();
+        self.note(MissionEvent::Stuck {
+            lost: lost.clone(),
+            policy: policy.to_string(),
+        });
+        if self.drone.is_none() {
+            // The ground station flies nothing: it reports and follows on.
+            self.alert(format!("waits on {}, which is lost", lost.join(", ")));
+            return;
+        }
+        self.alert(format!(
+            "stuck: waits on {}, lost; {policy}",
+            lost.join(", ")
+        ));
+        if me != GCS {
+            for l in &lost {
+                self.bridges
+                    .send(GCS, &liveness::stuck_notice(l, policy), Vec::new());
+            }
+        }
+        match policy {
+            OnLost::Hold => {}
+            OnLost::Land | OnLost::Home => {
+                let failsafe = if policy == OnLost::Land {
+                    Failsafe::Land
+                } else {
+                    Failsafe::Home
+                };
+                self.ended = Some(Outcome::PeerLost { lost, failsafe });
+            }
+            OnLost::Abort => {
+                self.abort_peers(None, Vec::new());
+                self.ended = Some(Outcome::Aborted {
+                    reason: format!("{me} aborted the mission: lost {}", lost.join(", ")),
+                });
+            }
+        }
+    }
+
+    /// Tells every other peer (but `except`) to abort, with `colour` (empty
+    /// for a peer abort, the command for a command passed on).
+    pub(super) fn abort_peers(&mut self, except: Option<&str>, colour: Colour) {
+        let me = self.me().to_string();
+        let to: Vec<PeerId> = self
+            .options
+            .peers
+            .iter()
+            .filter(|p| **p != me && Some(p.as_str()) != except)
+            .cloned()
+            .collect();
+        for p in to {
+            self.bridges.send(&p, ABORT, colour.clone());
+        }
+    }
+
+    /// An abort arrived: obeyed and passed on if it is valid, logged and
+    /// ignored otherwise.
+    pub(super) fn on_abort(&mut self, from: &str, colour: &[u32]) {
+        let verdict = abort::accept(
+            from,
+            colour,
+            &self.slice.mission_id,
+            &self.options.peers,
+            self.options.abort_opener.as_ref(),
+        );
+        match verdict {
+            Ok(origin) => {
+                let reason = origin.describe();
+                self.note(MissionEvent::AbortReceived {
+                    from: from.to_string(),
+                    reason: reason.clone(),
+                });
+                self.alert(format!("abort: {reason}"));
+                self.abort_peers(Some(from), colour.to_vec());
+                self.ended = Some(Outcome::Aborted { reason });
+            }
+            Err(reason) => {
+                tracing::warn!("{}: {reason}", self.me());
+                self.note(MissionEvent::AbortRefused {
+                    from: from.to_string(),
+                    reason: reason.clone(),
+                });
+                self.alert(reason);
+            }
+        }
+    }
+
+    /// A drone says it is stuck on a lost peer (the ground station reports
+    /// it).
+    pub(super) fn on_stuck_notice(&mut self, from: &str, bridge: &str) {
+        let Some((lost, policy)) = liveness::read_stuck_notice(bridge) else {
+            return;
+        };
+        self.note(MissionEvent::PeerStuck {
+            drone: from.to_string(),
+            lost: lost.clone(),
+            policy: policy.to_string(),
+        });
+        self.alert(format!("{from} is stuck on {lost}: {policy}"));
+    }
+
+    /// The failsafe that ends a run that did not complete: the policy's for
+    /// a lost peer, the fleet's abort failsafe for anything else.
+    pub(super) async fn failsafe_at_end(&mut self, outcome: &Outcome) {
+        let (kind, reason) = match outcome {
+            Outcome::Completed => return,
+            Outcome::PeerLost { lost, failsafe } => {
+                (*failsafe, format!("lost {}", lost.join(", ")))
+            }
+            Outcome::Aborted { reason } => (self.options.liveness.on_abort, reason.clone()),
+            Outcome::Failed { reason } => (self.options.liveness.on_abort, reason.clone()),
+            Outcome::TimeLimit { .. } => (self.options.liveness.on_abort, "time limit".into()),
+            Outcome::Stopped => (self.options.liveness.on_abort, "stopped".into()),
+        };
+        self.failsafe(kind, reason).await;
+    }
+
+    /// Flies `kind`, at most once per run.
+    async fn failsafe(&mut self, kind: Failsafe, reason: String) {
+        let Some(drone) = self.drone.clone() else {
+            return;
+        };
+        if std::mem::replace(&mut self.alive.failsafe_done, true) {
+            return;
+        }
+        let airborne = !drone.telemetry().borrow().landed;
+        self.note(MissionEvent::Failsafe {
+            failsafe: kind.to_string(),
+            reason,
+            airborne,
+        });
+        if !airborne {
+            return;
+        }
+        self.alert(format!("failsafe: {kind}"));
+        let result = tokio::time::timeout(FAILSAFE_TIMEOUT, drone.failsafe(kind))
+            .await
+            .unwrap_or_else(|_| {
+                Err(ActionError::Timeout {
+                    action: format!("failsafe {kind}"),
+                    what: "the end of the failsafe".into(),
+                })
+            });
+        let (outcome, error) = match &result {
+            Ok(()) => ("ok".to_string(), None),
+            Err(e) => (e.kind().to_string(), Some(e.to_string())),
+        };
+        self.note(MissionEvent::FailsafeFinished {
+            failsafe: kind.to_string(),
+            outcome,
+            error,
+        });
+    }
+}

@@ -1,0 +1,328 @@
+//! Liveness: who is up, who is lost, and what a drone that waits on a lost
+//! peer does about it.
+//!
+//! Every peer announces itself (a zenoh liveliness token, or the in-process
+//! hub's presence set) and watches the others through
+//! [`crate::transport::Link::presence`]. A peer seen once and then gone is
+//! *lost*; a lost peer seen again within the grace period was never lost
+//! as far as the mission is concerned.
+//!
+//! A drone is *stuck* on a lost peer when it has nothing left to do on its
+//! own (no action running, no pause counting) and its marking waits for a
+//! token that only that peer would send (a transition whose missing inputs
+//! are all inboxes of bridges from it). A drone that has lost every other
+//! peer, the ground station included, is stuck on all of them as soon as it
+//! is idle: nobody can tell it the mission ended or was aborted, so it
+//! decides alone. Drones that do not wait on the lost peer carry on
+//! untouched.
+//!
+//! Once the grace period has passed, a stuck drone follows the policy its
+//! fleet file declares ([`OnLost`]) and tells the ground station, which
+//! reports who is lost and who is stuck because of it.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+use eamos_mid::Failsafe;
+use eamos_petri::net::Colour;
+use eamos_slicer::Slice;
+
+use crate::transport::PeerId;
+
+/// What a drone does once a peer it waits on has been lost for the grace
+/// period.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OnLost {
+    /// Hover where it is and keep waiting: if the peer comes back, the
+    /// mission goes on.
+    Hold,
+    /// Land where it is; its part of the mission ends.
+    #[default]
+    Land,
+    /// Return home and land there; its part of the mission ends.
+    Home,
+    /// Abort the whole mission: every drone goes to its abort failsafe.
+    Abort,
+}
+
+impl OnLost {
+    pub fn name(self) -> &'static str {
+        match self {
+            OnLost::Hold => "hold",
+            OnLost::Land => "land",
+            OnLost::Home => "home",
+            OnLost::Abort => "abort",
+        }
+    }
+
+    fn parse(s: &str) -> Option<OnLost> {
+        Some(match s {
+            "hold" => OnLost::Hold,
+            "land" => OnLost::Land,
+            "home" => OnLost::Home,
+            "abort" => OnLost::Abort,
+            _ => return None,
+        })
+    }
+}
+
+impl fmt::Display for OnLost {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The liveness settings of one peer, as its fleet file declares them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Liveness {
+    pub on_lost: OnLost,
+    /// Mission seconds a lost peer has to come back before the policy
+    /// applies (simulated seconds in a simulated fleet, like every other
+    /// duration of a mission).
+    pub grace: f64,
+    /// Where the drone goes when the mission is aborted or stopped (the
+    /// `abort` command, Ctrl-C, a peer's abort, the time limit).
+    pub on_abort: Failsafe,
+}
+
+impl Default for Liveness {
+    fn default() -> Self {
+        Liveness {
+            on_lost: OnLost::Land,
+            grace: DEFAULT_GRACE,
+            on_abort: Failsafe::Land,
+        }
+    }
+}
+
+/// The grace period when the fleet file gives none, in mission seconds.
+pub const DEFAULT_GRACE: f64 = 5.0;
+
+/// Reads a duration as fleet files write it: a number of seconds (`5`,
+/// `2.5`) or a string with a unit (`"5s"`, `"500ms"`, `"2min"`).
+pub fn parse_duration(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let value: f64 = number.parse().map_err(|_| {
+        format!("`{text}` is not a duration (write seconds, or \"5s\", \"500ms\", \"2min\")")
+    })?;
+    let factor = match unit.trim() {
+        "" | "s" => 1.0,
+        "ms" => 0.001,
+        "min" => 60.0,
+        other => {
+            return Err(format!(
+                "`{other}` is not a unit of time here (use s, ms or min)"
+            ))
+        }
+    };
+    let seconds = value * factor;
+    if !seconds.is_finite() || seconds < 0.0 {
+        return Err(format!("`{text}` is not a duration of zero or more"));
+    }
+    Ok(seconds)
+}
+
+/// A grace period in a fleet file: seconds, or a string with a unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grace(pub f64);
+
+impl<'de> Deserialize<'de> for Grace {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Grace, D::Error> {
+        use serde::de::Error;
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Number(f64),
+            Integer(i64),
+            Text(String),
+        }
+        let seconds = match Raw::deserialize(d)? {
+            Raw::Number(n) => n,
+            Raw::Integer(n) => n as f64,
+            Raw::Text(t) => parse_duration(&t).map_err(D::Error::custom)?,
+        };
+        if !seconds.is_finite() || seconds < 0.0 {
+            return Err(D::Error::custom(format!(
+                "a grace period is zero or more seconds, not {seconds}"
+            )));
+        }
+        Ok(Grace(seconds))
+    }
+}
+
+/// The peers whose tokens the marking waits for: every transition that has
+/// some input tokens and lacks only tokens from bridges names the senders
+/// of those bridges.
+pub fn waits_on(slice: &Slice, marking: &[Vec<Colour>]) -> BTreeSet<PeerId> {
+    let inbox_from: BTreeMap<u32, &str> = slice
+        .bridges_in
+        .iter()
+        .map(|b| (b.inbox, b.from.as_str()))
+        .collect();
+    let marked = |p: u32| marking.get(p as usize).is_some_and(|t| !t.is_empty());
+    let mut out = BTreeSet::new();
+    for t in &slice.transitions {
+        let inputs: Vec<u32> = t.consume.iter().chain(&t.read).copied().collect();
+        if !inputs.iter().any(|&p| marked(p)) {
+            continue;
+        }
+        let missing: Vec<u32> = inputs.iter().copied().filter(|&p| !marked(p)).collect();
+        if missing.is_empty() || !missing.iter().all(|p| inbox_from.contains_key(p)) {
+            continue;
+        }
+        out.extend(missing.iter().map(|p| inbox_from[p].to_string()));
+    }
+    out
+}
+
+/// The control bridge on which a stuck drone tells the ground station.
+const STUCK_PREFIX: &str = "stuck:";
+
+/// The name of the notice "I am stuck on `lost` and apply `policy`".
+pub fn stuck_notice(lost: &str, policy: OnLost) -> String {
+    format!("{STUCK_PREFIX}{lost}:{policy}")
+}
+
+/// Reads a notice made by [`stuck_notice`].
+pub fn read_stuck_notice(bridge: &str) -> Option<(String, OnLost)> {
+    let rest = bridge.strip_prefix(STUCK_PREFIX)?;
+    let (lost, policy) = rest.rsplit_once(':')?;
+    Some((lost.to_string(), OnLost::parse(policy)?))
+}
+
+/// Who is up and who has been lost since when, as one peer sees it.
+#[derive(Debug, Default)]
+pub struct Watch {
+    /// Peers seen up at least once.
+    seen: BTreeSet<PeerId>,
+    present: BTreeSet<PeerId>,
+    /// Lost peers, with the mission time they disappeared.
+    lost: BTreeMap<PeerId, f64>,
+}
+
+/// A change worth logging.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Change {
+    Lost(PeerId),
+    Back(PeerId),
+}
+
+impl Watch {
+    /// Takes the latest presence set at mission time `now`; returns who was
+    /// lost and who came back. A peer never seen is not lost, only late.
+    pub fn update(&mut self, me: &str, present: &BTreeSet<PeerId>, now: f64) -> Vec<Change> {
+        let mut changes = Vec::new();
+        for p in present.iter().filter(|p| p.as_str() != me) {
+            self.seen.insert(p.clone());
+            if self.lost.remove(p).is_some() {
+                changes.push(Change::Back(p.clone()));
+            }
+        }
+        for p in self.present.iter().filter(|p| p.as_str() != me) {
+            if !present.contains(p) && !self.lost.contains_key(p) {
+                self.lost.insert(p.clone(), now);
+                changes.push(Change::Lost(p.clone()));
+            }
+        }
+        self.present = present.clone();
+        changes
+    }
+
+    /// Lost peers whose grace period has passed at `now`.
+    pub fn lost_for(&self, grace: f64, now: f64) -> BTreeSet<PeerId> {
+        self.lost
+            .iter()
+            .filter(|(_, since)| now >= *since + grace)
+            .map(|(p, _)| p.clone())
+            .collect()
+    }
+
+    /// When the next grace period ends (mission time), if a peer is lost
+    /// and still within it.
+    pub fn next_deadline(&self, grace: f64, now: f64) -> Option<f64> {
+        self.lost
+            .values()
+            .map(|since| since + grace)
+            .filter(|t| *t > now)
+            .min_by(f64::total_cmp)
+    }
+
+    pub fn is_lost(&self, peer: &str) -> bool {
+        self.lost.contains_key(peer)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn set(peers: &[&str]) -> BTreeSet<PeerId> {
+        peers.iter().map(|p| p.to_string()).collect()
+    }
+
+    #[test]
+    fn a_peer_seen_and_then_gone_is_lost_and_one_never_seen_is_only_late() {
+        let mut w = Watch::default();
+        assert!(w.update("D1", &set(&["D1", "GCS"]), 0.0).is_empty());
+        assert_eq!(
+            w.update("D1", &set(&["D1"]), 2.0),
+            vec![Change::Lost("GCS".into())]
+        );
+        assert!(w.is_lost("GCS") && !w.is_lost("D2"));
+        assert_eq!(w.lost_for(5.0, 6.0), set(&[]));
+        assert_eq!(w.next_deadline(5.0, 6.0), Some(7.0));
+        assert_eq!(w.lost_for(5.0, 7.0), set(&["GCS"]));
+    }
+
+    #[test]
+    fn a_peer_back_within_the_grace_period_is_no_longer_lost() {
+        let mut w = Watch::default();
+        w.update("D1", &set(&["D1", "D2"]), 0.0);
+        w.update("D1", &set(&["D1"]), 1.0);
+        assert_eq!(
+            w.update("D1", &set(&["D1", "D2"]), 3.0),
+            vec![Change::Back("D2".into())]
+        );
+        assert!(w.lost_for(0.0, 100.0).is_empty());
+        assert_eq!(w.next_deadline(5.0, 3.0), None);
+    }
+
+    #[test]
+    fn grace_periods_are_seconds_or_text_with_a_unit() {
+        assert_eq!(parse_duration("5s"), Ok(5.0));
+        assert_eq!(parse_duration("250ms"), Ok(0.25));
+        assert_eq!(parse_duration("2min"), Ok(120.0));
+        assert_eq!(parse_duration("1.5"), Ok(1.5));
+        assert!(parse_duration("5 parsecs").unwrap_err().contains("parsecs"));
+        assert!(parse_duration("soon").is_err());
+        #[derive(Deserialize)]
+        struct G {
+            grace: Grace,
+        }
+        assert_eq!(toml::from_str::<G>("grace = 3").unwrap().grace, Grace(3.0));
+        assert_eq!(
+            toml::from_str::<G>("grace = 0.5").unwrap().grace,
+            Grace(0.5)
+        );
+        assert_eq!(
+            toml::from_str::<G>("grace = \"10s\"").unwrap().grace,
+            Grace(10.0)
+        );
+        assert!(toml::from_str::<G>("grace = -1").is_err());
+    }
+
+    #[test]
+    fn a_stuck_notice_names_the_lost_peer_and_the_policy() {
+        let n = stuck_notice("D2", OnLost::Home);
+        assert_eq!(read_stuck_notice(&n), Some(("D2".into(), OnLost::Home)));
+        assert_eq!(read_stuck_notice("stuck:D2:fly"), None);
+        assert_eq!(read_stuck_notice("17"), None);
+    }
+}

@@ -1,0 +1,315 @@
+//! A drone cut off the network mid-mission (the transport fault wrapper's
+//! partition, over the in-process link): the drones that do not wait on it
+//! carry on untouched, the drone that waits on it follows its fleet's
+//! policy once the grace period has passed, the ground station reports who
+//! is lost and who is stuck, and no drone flies its failsafe twice.
+//!
+//! The mission is `examples/dropout.go`: Follow waits for Lead's signal,
+//! Free flies on its own. Lead is cut as it sets off on its long leg.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use eamos_exec::executor::{Progress, ProgressKind};
+use eamos_exec::fleet::Fleet;
+use eamos_exec::log::{read_mission_log, MissionEvent, MissionRecord};
+use eamos_exec::runner::{run_fleet, RunOptions, RunReport};
+use eamos_exec::transport::faulty::Partition;
+use eamos_exec::Outcome;
+use eamos_lang::SourceFile;
+use eamos_mid::Vec3;
+use eamos_slicer::Slices;
+use tokio::sync::mpsc;
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../examples")
+        .join(name)
+}
+
+fn slices() -> (Slices, Arc<SourceFile>) {
+    let path = example("dropout.go");
+    let file = SourceFile::new(
+        path.display().to_string(),
+        std::fs::read_to_string(&path).unwrap(),
+    );
+    let profiles = eamos_mid::profiles::builtin();
+    let mission = eamos_lang::compile(&file, &profiles).unwrap().mission;
+    let net = eamos_petri::compile(&mission, &profiles);
+    (eamos_slicer::slice(&net).unwrap(), Arc::new(file))
+}
+
+/// When to heal the partition again (the hold test), if ever.
+#[derive(Clone, Copy, PartialEq)]
+enum Heal {
+    Never,
+    WhenFollowIsStuck,
+}
+
+struct Run {
+    report: RunReport,
+    dir: tempfile::TempDir,
+}
+
+impl Run {
+    fn log(&self, peer: &str) -> Vec<MissionRecord> {
+        read_mission_log(&self.dir.path().join(format!("{peer}.mission.jsonl"))).unwrap()
+    }
+
+    fn outcome(&self, peer: &str) -> &Outcome {
+        &self
+            .report
+            .reports
+            .iter()
+            .find(|r| r.drone == peer)
+            .unwrap()
+            .outcome
+    }
+
+    fn failsafes(&self, peer: &str) -> Vec<(String, bool)> {
+        self.log(peer)
+            .into_iter()
+            .filter_map(|r| match r.event {
+                MissionEvent::Failsafe {
+                    failsafe, airborne, ..
+                } => Some((failsafe, airborne)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn last_position(&self, drone: &str) -> Vec3 {
+        *self.report.trajectories[drone].last().unwrap()
+    }
+
+    fn stuck(&self, peer: &str) -> Vec<(Vec<String>, String)> {
+        self.log(peer)
+            .into_iter()
+            .filter_map(|r| match r.event {
+                MissionEvent::Stuck { lost, policy } => Some((lost, policy)),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+/// Flies the mission with `fleet`, cutting Lead off as it starts its long
+/// leg.
+async fn fly_and_cut_lead(fleet: &str, heal: Heal) -> Run {
+    let (slices, source) = slices();
+    let fleet = Fleet::parse(
+        fleet,
+        "fleet.toml",
+        &slices.mission,
+        &slices.distributed.drones,
+    )
+    .unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let partition = Partition::new();
+    let (progress_tx, mut progress_rx) = mpsc::unbounded_channel::<Progress>();
+    let options = RunOptions {
+        speed: 50.0,
+        out: dir.path().to_path_buf(),
+        source: Some(source),
+        max_duration: Some(300.0),
+        progress: Some(progress_tx),
+        partition: Some(partition.clone()),
+        ..RunOptions::default()
+    };
+    let watcher = tokio::spawn(async move {
+        let mut cut = false;
+        while let Some(p) = progress_rx.recv().await {
+            match (&p.drone[..], &p.what) {
+                ("Lead", ProgressKind::ActionStarted(a)) if a.starts_with("FlyByX") && !cut => {
+                    partition.cut("Lead");
+                    cut = true;
+                }
+                ("Follow", ProgressKind::Alert(a))
+                    if a.starts_with("stuck") && heal == Heal::WhenFollowIsStuck =>
+                {
+                    partition.heal("Lead");
+                }
+                _ => {}
+            }
+        }
+        cut
+    });
+    let profiles = eamos_mid::profiles::builtin();
+    let report = run_fleet(&slices, &fleet, &profiles, &options)
+        .await
+        .unwrap();
+    drop(options);
+    assert!(watcher.await.unwrap(), "Lead was never cut");
+    Run { report, dir }
+}
+
+/// What every test checks: Free flew all its actions, the ground station
+/// reported Lead lost and Follow stuck on it, nobody flew a failsafe twice.
+fn check_common(run: &Run, policy: &str) {
+    let free = run
+        .report
+        .reports
+        .iter()
+        .find(|r| r.drone == "Free")
+        .unwrap();
+    assert_eq!(
+        free.actions, 5,
+        "Free carries on untouched: {:?}",
+        free.outcome
+    );
+    assert!(
+        run.failsafes("Free").iter().all(|(_, airborne)| !airborne),
+        "Free was never sent to a failsafe in the air"
+    );
+    let gcs = run.log("GCS");
+    assert!(
+        gcs.iter().any(|r| r.event
+            == MissionEvent::PeerLost {
+                peer: "Lead".into()
+            }),
+        "the ground station reports Lead lost"
+    );
+    assert!(
+        gcs.iter().any(|r| r.event
+            == MissionEvent::PeerStuck {
+                drone: "Follow".into(),
+                lost: "Lead".into(),
+                policy: policy.into(),
+            }),
+        "the ground station reports Follow stuck on Lead"
+    );
+    assert_eq!(
+        run.stuck("Follow"),
+        vec![(vec!["Lead".to_string()], policy.to_string())]
+    );
+    for peer in ["GCS", "Free", "Lead", "Follow"] {
+        assert!(
+            run.failsafes(peer).len() <= 1,
+            "{peer} failsafes: {:?}",
+            run.failsafes(peer)
+        );
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_waiting_on_a_lost_peer_lands_where_it_waits_when_its_policy_is_land() {
+    let run = fly_and_cut_lead(
+        "[drones.Follow]\non_lost = \"land\"\ngrace = 2\n",
+        Heal::Never,
+    )
+    .await;
+    check_common(&run, "land");
+    assert!(
+        matches!(run.outcome("Follow"), Outcome::PeerLost { lost, .. } if lost == &["Lead"]),
+        "{:?}",
+        run.outcome("Follow")
+    );
+    assert_eq!(run.failsafes("Follow"), vec![("land".to_string(), true)]);
+    // Follow waited 5 m east of its home, 4 m up; it landed right there.
+    let home = run.report.trajectories["Follow"][0];
+    let end = run.last_position("Follow");
+    assert!(end.z < 0.2, "Follow landed: {end}");
+    assert!(
+        (end - (home + Vec3::new(0.0, 5.0, 0.0))).horizontal_norm() < 0.5,
+        "Follow landed where it waited: {end}, home {home}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_waiting_on_a_lost_peer_returns_home_and_lands_when_its_policy_is_home() {
+    let run = fly_and_cut_lead(
+        "[failsafe]\non_lost = \"home\"\ngrace = \"2s\"\n",
+        Heal::Never,
+    )
+    .await;
+    check_common(&run, "home");
+    assert_eq!(run.failsafes("Follow"), vec![("home".to_string(), true)]);
+    let path = &run.report.trajectories["Follow"];
+    let home = path[0];
+    let end = run.last_position("Follow");
+    assert!(
+        path.iter().any(|p| (p.y - home.y) > 4.5),
+        "Follow had flown east first"
+    );
+    assert!(end.z < 0.2, "Follow landed: {end}");
+    assert!(
+        (end - home).horizontal_norm() < 0.5,
+        "Follow landed at home: {end}, home {home}"
+    );
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_waiting_on_a_lost_peer_holds_and_goes_on_when_the_peer_is_back_if_its_policy_is_hold(
+) {
+    let run = fly_and_cut_lead(
+        "[drones.Follow]\non_lost = \"hold\"\ngrace = 2\n",
+        Heal::WhenFollowIsStuck,
+    )
+    .await;
+    check_common(&run, "hold");
+    for r in &run.report.reports {
+        assert_eq!(r.outcome, Outcome::Completed, "{}", r.drone);
+    }
+    assert!(
+        run.failsafes("Follow").is_empty(),
+        "holding flies no failsafe"
+    );
+    let follow = run.log("Follow");
+    let stuck = follow
+        .iter()
+        .position(|r| matches!(r.event, MissionEvent::Stuck { .. }))
+        .unwrap();
+    let back = follow
+        .iter()
+        .position(|r| {
+            r.event
+                == MissionEvent::PeerBack {
+                    peer: "Lead".into(),
+                }
+        })
+        .expect("Follow saw Lead back");
+    let second_leg = follow
+        .iter()
+        .position(|r| {
+            matches!(&r.event, MissionEvent::ActionStarted { action, .. } if action == "FlyByX")
+        })
+        .expect("Follow flew its second leg");
+    assert!(stuck < back && back < second_leg);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_waiting_on_a_lost_peer_aborts_the_mission_and_every_drone_lands_once_if_its_policy_is_abort(
+) {
+    let run = fly_and_cut_lead(
+        "[failsafe]\ngrace = 2\n\n[drones.Follow]\non_lost = \"abort\"\n",
+        Heal::Never,
+    )
+    .await;
+    check_common(&run, "abort");
+    assert!(matches!(run.outcome("Follow"), Outcome::Aborted { .. }));
+    assert!(
+        matches!(run.outcome("GCS"), Outcome::Aborted { reason } if reason.contains("Follow")),
+        "{:?}",
+        run.outcome("GCS")
+    );
+    for drone in ["Free", "Lead", "Follow"] {
+        assert_eq!(run.failsafes(drone).len(), 1, "{drone}");
+        assert!(run.last_position(drone).z < 0.2, "{drone} landed");
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_cut_off_from_everyone_decides_alone_once_it_has_nothing_left_to_do() {
+    let run = fly_and_cut_lead("[failsafe]\ngrace = 2\non_lost = \"land\"\n", Heal::Never).await;
+    // Lead finished its leg and its landing on its own, then found itself
+    // alone: the ground station and every peer lost.
+    let lead = run.stuck("Lead");
+    assert_eq!(lead.len(), 1, "{lead:?}");
+    assert_eq!(lead[0].0, vec!["Follow", "Free", "GCS"]);
+    assert!(matches!(run.outcome("Lead"), Outcome::PeerLost { .. }));
+    let lead_log = run.log("Lead");
+    assert!(lead_log.iter().any(|r| matches!(
+        &r.event,
+        MissionEvent::ActionFinished { action, outcome, .. } if action == "Land" && outcome == "ok"
+    )));
+}

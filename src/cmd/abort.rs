@@ -1,0 +1,144 @@
+//! `eamos abort MISSION`: abort a running mission from any machine on its
+//! network. Every drone cancels what it is doing and goes to its abort
+//! failsafe (the fleet file's `on_abort`, landing by default), each exactly
+//! once; drones this command cannot reach hear it from the peers that can.
+//!
+//! The command joins the mission's zenoh network (the endpoints the fleet
+//! file gives, or the loopback ports derived from the mission) without
+//! becoming a peer of the mission. Exit status: 0 every peer acknowledged,
+//! 1 some did not (down, or cut off), 2 bad input or no network.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use eamos_exec::abort::{self, AbortCommand};
+use eamos_exec::fleet::Fleet;
+use eamos_exec::runner;
+use eamos_exec::transport::GCS;
+use eamos_lang::{SourceFile, Style};
+
+/// Abort a running mission: every drone goes to its failsafe.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission file (Go syntax), as the mission was started with.
+    pub mission: PathBuf,
+    /// The fleet file the mission was started with (endpoints, keys).
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// The ground station's secret key, to seal the command (needed when
+    /// the fleet file names the ground station's public key: the agents
+    /// then refuse unsealed commands).
+    #[arg(long, value_name = "GCS.key")]
+    pub key: Option<PathBuf>,
+    /// How long to wait for every peer's acknowledgement.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    pub timeout: f64,
+}
+
+fn bad_input(message: &str) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(2)
+}
+
+pub fn run(args: Args) -> ExitCode {
+    if !(args.timeout.is_finite() && args.timeout > 0.0) {
+        return bad_input("--timeout must be a number of seconds above zero");
+    }
+    let name = args.mission.display().to_string();
+    let text = match std::fs::read_to_string(&args.mission) {
+        Ok(t) => t,
+        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
+    };
+    let source = SourceFile::new(name.clone(), text);
+    let profiles = eamos_mid::profiles::builtin();
+    let compiled = match eamos_lang::compile(&source, &profiles) {
+        Ok(c) => c,
+        Err(diags) => {
+            let style = Style {
+                width: 100,
+                colour: false,
+            };
+            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
+            return ExitCode::from(2);
+        }
+    };
+    let net = eamos_petri::compile(&compiled.mission, &profiles);
+    let mut slices = match eamos_slicer::slice(&net) {
+        Ok(s) => s,
+        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
+    };
+    let fleet = match &args.fleet {
+        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
+            Ok(f) => f,
+            Err(e) => return bad_input(&e.to_string()),
+        },
+        None => Fleet::default(),
+    };
+    // The identity the running peers have: mission and fleet together.
+    eamos_exec::identity::bind(&mut slices, &fleet);
+    let sealer = match &args.key {
+        Some(path) => match eamos_seal::GroundKey::load(path) {
+            Ok(k) => Some(abort::sealer(k)),
+            Err(e) => return bad_input(&e.to_string()),
+        },
+        None => None,
+    };
+    let peers = runner::peers(&slices);
+    // Connect to every peer's endpoints, listen on none: this command is
+    // nobody's peer and must not take the ground station's port.
+    let mut options = fleet.zenoh_options(&slices.mission_id, &peers, GCS);
+    options.connect = peers
+        .iter()
+        .flat_map(|p| fleet.listen(&slices.mission_id, &peers, p))
+        .collect();
+    options.listen = Vec::new();
+    let me = format!("abort-{}", std::process::id());
+    let issued_by = std::env::var("USER").unwrap_or_else(|_| "eamos abort".to_string());
+    let command = AbortCommand::new(&slices.mission_id, &format!("{issued_by} ({me})"));
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    let timeout = Duration::from_secs_f64(args.timeout);
+    let sent = runtime.block_on(abort::broadcast(
+        &command,
+        &me,
+        &peers,
+        &options,
+        sealer.as_ref(),
+        timeout,
+    ));
+    match sent {
+        Err(e) => bad_input(&format!("cannot join the mission's network: {e}")),
+        Ok(sent) => {
+            let missing: Vec<&String> = sent
+                .sent_to
+                .iter()
+                .filter(|p| !sent.reached.contains(p))
+                .collect();
+            println!(
+                "{}: abort sent to {} peers ({} up), {} not acknowledged",
+                slices.mission,
+                sent.sent_to.len(),
+                sent.reached.len(),
+                sent.unacknowledged
+            );
+            if !missing.is_empty() {
+                let names: Vec<&str> = missing.iter().map(|s| s.as_str()).collect();
+                println!(
+                    "not seen up: {} (the peers that are pass the abort on)",
+                    names.join(", ")
+                );
+            }
+            if sent.unacknowledged == 0 {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
+            }
+        }
+    }
+}
