@@ -46,7 +46,6 @@
 //! station's, are `listen` and `connect` lists, given in the drone's
 //! `zenoh` table.
 //!
-//!
 //! A drone the file does not name is simulated, at a home of its own (see
 //! [`default_home`]). A peer without `listen` endpoints listens on a
 //! loopback port derived from the mission and the peer (see
