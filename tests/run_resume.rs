@@ -37,6 +37,7 @@ struct Flight {
     dir: tempfile::TempDir,
     procs: Processes,
     speed: &'static str,
+    grace: u32,
 }
 
 impl Flight {
@@ -50,10 +51,16 @@ impl Flight {
 
     /// A fleet file whose grace period outlasts a restart: the peers that
     /// wait on the killed drone see it lost, and back before they give up.
+    /// (Each test's differs, and so its mission identity and loopback
+    /// ports: the tests run side by side.)
     fn fleet(&self) -> PathBuf {
         let path = self.dir.path().join("fleet.toml");
         if !path.exists() {
-            std::fs::write(&path, "[failsafe]\non_lost = \"hold\"\ngrace = \"600s\"\n").unwrap();
+            let text = format!(
+                "[failsafe]\non_lost = \"hold\"\ngrace = \"{}s\"\n",
+                self.grace
+            );
+            std::fs::write(&path, text).unwrap();
         }
         path
     }
@@ -157,12 +164,13 @@ fn slices(mission: &str) -> eamos_slicer::Slices {
 }
 
 /// Starts every drone, then the ground station, all journaling.
-fn fly(mission: &'static str, speed: &'static str) -> Flight {
+fn fly(mission: &'static str, speed: &'static str, grace: u32) -> Flight {
     let mut f = Flight {
         mission,
         dir: tempfile::tempdir().unwrap(),
         procs: Processes(Vec::new()),
         speed,
+        grace,
     };
     for d in &slices(mission).distributed.drones {
         f.start(&["--drone", d], 1);
@@ -258,7 +266,7 @@ fn ended_at(f: &Flight, drone: &str, action: &str) -> Vec<[f64; 3]> {
 #[test]
 fn a_drone_killed_in_the_middle_of_a_motion_and_restarted_resumes_it_and_the_mission_runs_every_action_once(
 ) {
-    let mut f = fly("experiment_c.go", "4");
+    let mut f = fly("experiment_c.go", "4", 600);
     // Drone3's FlyByX(5): from 5 m above its home to 5 m north of it.
     f.wait_for(
         "Drone3",
@@ -303,7 +311,7 @@ fn a_drone_killed_in_the_middle_of_a_motion_and_restarted_resumes_it_and_the_mis
 
 #[test]
 fn a_drone_killed_between_two_actions_and_restarted_misses_no_token_and_repeats_no_action() {
-    let mut f = fly("experiment_c.go", "10");
+    let mut f = fly("experiment_c.go", "10", 601);
     // Drone3 has taken off and waits for the two others to do so.
     f.wait_for(
         "Drone3",
