@@ -210,7 +210,7 @@ fn an_agent_killed_mid_mission_leaves_the_others_untouched_and_the_drone_waiting
         .iter()
         .any(|r| r["event"] == "peer_lost" && r["peer"] == "Lead"));
     assert!(gcs.iter().any(|r| r["event"] == "peer_stuck"
-        && r["drone"] == "Follow"
+        && r["peer"] == "Follow"
         && r["lost"] == "Lead"
         && r["policy"] == "home"));
     let gcs_err = fleet.stderr("GCS");

@@ -41,6 +41,11 @@ use crate::log::{DroneLog, MissionEvent};
 use crate::transport::reliable::{BridgeStats, Bridges, Delivered};
 use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
 
+/// How long the end of a run waits for cancelled actions to report back
+/// before it flies the failsafe anyway (wall time: a cancellation is the
+/// adapter's, not the mission's, business).
+const CANCEL_SETTLE: Duration = Duration::from_secs(10);
+
 /// The bridge name of the "mission has ended" notice.
 pub const END: &str = "end";
 /// The bridge name of the "a drone failed, land" notice.
@@ -590,7 +595,10 @@ impl Executor {
         let outcome = self.ended.clone().unwrap_or(Outcome::Stopped);
 
         if !matches!(outcome, Outcome::Completed) {
-            self.cancel_all();
+            let cancelled = self.cancel_all();
+            // An adapter refuses a failsafe while a cancelled motion still
+            // holds the drone: let every cancelled action report back first.
+            self.settle_cancelled(cancelled).await;
             if outcome == Outcome::Stopped {
                 // Stopped here (Ctrl-C): the mission cannot go on, so
                 // every peer is told, as for a failed action.
@@ -1017,9 +1025,29 @@ impl Executor {
             .min_by(f64::total_cmp)
     }
 
-    fn cancel_all(&mut self) {
+    /// Cancels every running action; returns how many will report back.
+    fn cancel_all(&mut self) -> usize {
+        let mut cancelled = 0;
         for (_, token) in self.running.drain() {
             token.cancel();
+            cancelled += 1;
+        }
+        cancelled
+    }
+
+    /// Waits until `pending` cancelled actions have reported their end, or
+    /// until [`CANCEL_SETTLE`] has passed: an adapter that does not honour a
+    /// cancellation must not keep the failsafe from flying.
+    async fn settle_cancelled(&mut self, mut pending: usize) {
+        let deadline = tokio::time::Instant::now() + CANCEL_SETTLE;
+        while pending > 0 {
+            match tokio::time::timeout_at(deadline, self.finished_rx.recv()).await {
+                Ok(Some(f)) => {
+                    self.on_finished(f);
+                    pending -= 1;
+                }
+                Ok(None) | Err(_) => break,
+            }
         }
     }
 

@@ -128,7 +128,8 @@ pub enum MissionEvent {
     /// A peer told this one (the ground station) that it is stuck on a
     /// lost peer, and what it does about it.
     PeerStuck {
-        drone: String,
+        /// The drone that is stuck (`drone` names the record's writer).
+        peer: String,
         lost: String,
         policy: String,
     },

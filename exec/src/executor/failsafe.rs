@@ -105,6 +105,18 @@ impl Executor {
             .collect();
         let mut others = self.options.peers.iter().filter(|p| **p != me).peekable();
         let isolated = others.peek().is_some() && others.all(|p| lost.contains(p));
+        if isolated && self.drone.is_none() {
+            // The ground station with every peer gone, each for the grace
+            // period: no token, end notice or report can reach it any more,
+            // and the drones decide alone. It says so and stops following.
+            let lost: Vec<String> = lost.into_iter().collect();
+            self.alert(format!("every peer is lost ({})", lost.join(", ")));
+            self.ended = Some(Outcome::PeerLost {
+                lost,
+                failsafe: Failsafe::Hold,
+            });
+            return;
+        }
         if isolated && self.drone.is_some() {
             on.extend(lost.iter().cloned());
         }
@@ -208,7 +220,7 @@ impl Executor {
             return;
         };
         self.note(MissionEvent::PeerStuck {
-            drone: from.to_string(),
+            peer: from.to_string(),
             lost: lost.clone(),
             policy: policy.to_string(),
         });
