@@ -449,5 +449,5 @@ fn a_drone_cut_off_the_network_by_a_network_namespace_makes_the_drone_waiting_on
         .any(|r| r["event"] == "peer_lost" && r["peer"] == "Lead"));
     assert!(gcs
         .iter()
-        .any(|r| r["event"] == "peer_stuck" && r["drone"] == "Follow" && r["lost"] == "Lead"));
+        .any(|r| r["event"] == "peer_stuck" && r["peer"] == "Follow" && r["lost"] == "Lead"));
 }

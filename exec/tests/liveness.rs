@@ -313,6 +313,6 @@ async fn a_drone_cut_off_from_everyone_decides_alone_once_it_has_nothing_left_to
     let lead_log = run.log("Lead");
     assert!(lead_log.iter().any(|r| matches!(
         &r.event,
-        MissionEvent::ActionFinished { action, outcome, .. } if action == "Land" && outcome == "ok"
-    )));
+        MissionEvent::ActionFinished { action, outcome, .. } if action == "Land()" && outcome == "ok"
+    )), "{:#?}", lead_log.iter().map(|r| &r.event).collect::<Vec<_>>());
 }
