@@ -13,10 +13,10 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use eamos_exec::abort::{self, AbortCommand};
-use eamos_exec::fleet::Fleet;
+
+use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner;
 use eamos_exec::transport::GCS;
-use eamos_lang::{SourceFile, Style};
 
 /// Abort a running mission: every drone goes to its failsafe.
 #[derive(clap::Args)]
@@ -36,47 +36,15 @@ pub struct Args {
     pub timeout: f64,
 }
 
-fn bad_input(message: &str) -> ExitCode {
-    eprintln!("error: {message}");
-    ExitCode::from(2)
-}
-
 pub fn run(args: Args) -> ExitCode {
     if !(args.timeout.is_finite() && args.timeout > 0.0) {
         return bad_input("--timeout must be a number of seconds above zero");
     }
-    let name = args.mission.display().to_string();
-    let text = match std::fs::read_to_string(&args.mission) {
-        Ok(t) => t,
-        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
-    };
-    let source = SourceFile::new(name.clone(), text);
-    let profiles = eamos_mid::profiles::builtin();
-    let compiled = match eamos_lang::compile(&source, &profiles) {
-        Ok(c) => c,
-        Err(diags) => {
-            let style = Style {
-                width: 100,
-                colour: false,
-            };
-            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
-            return ExitCode::from(2);
-        }
-    };
-    let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let mut slices = match eamos_slicer::slice(&net) {
-        Ok(s) => s,
-        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
-    };
-    let fleet = match &args.fleet {
-        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
-            Ok(f) => f,
-            Err(e) => return bad_input(&e.to_string()),
-        },
-        None => Fleet::default(),
-    };
-    // The identity the running peers have: mission and fleet together.
-    eamos_exec::identity::bind(&mut slices, &fleet);
+    let Mission { slices, fleet, .. } =
+        match mission::load(&args.mission, args.fleet.as_deref(), false) {
+            Ok(m) => m,
+            Err(status) => return status,
+        };
     let sealer = match &args.key {
         Some(path) => match eamos_seal::GroundKey::load(path) {
             Ok(k) => Some(abort::sealer(k)),

@@ -20,9 +20,10 @@ use std::time::Duration;
 
 use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
 use eamos_exec::fleet::Fleet;
+
+use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner::RunOptions;
 use eamos_exec::Outcome;
-use eamos_lang::{SourceFile, Style};
 use eamos_seal::GroundKey;
 
 /// Send each drone's agent its signed slice, then start the mission.
@@ -58,11 +59,6 @@ pub struct Args {
     /// How long the ground station waits for the started drones.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub startup_timeout: f64,
-}
-
-fn bad_input(message: &str) -> ExitCode {
-    eprintln!("error: {message}");
-    ExitCode::from(2)
 }
 
 /// The secret key: `--key`, or the fleet's public key's sibling. A fleet
@@ -104,37 +100,20 @@ pub fn run(args: Args) -> ExitCode {
             return bad_input(&format!("--max-duration must be above zero, not {d}"));
         }
     }
-    let name = args.mission.display().to_string();
-    let text = match std::fs::read_to_string(&args.mission) {
-        Ok(t) => t,
-        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
+    let Mission {
+        source,
+        profiles,
+        slices,
+        fleet,
+        ..
+    } = match mission::load(
+        &args.mission,
+        args.fleet.as_deref(),
+        std::io::stderr().is_terminal(),
+    ) {
+        Ok(m) => m,
+        Err(status) => return status,
     };
-    let source = SourceFile::new(name.clone(), text);
-    let profiles = eamos_mid::profiles::builtin();
-    let compiled = match eamos_lang::compile(&source, &profiles) {
-        Ok(c) => c,
-        Err(diags) => {
-            let style = Style {
-                width: 100,
-                colour: std::io::stderr().is_terminal(),
-            };
-            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
-            return ExitCode::from(2);
-        }
-    };
-    let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let mut slices = match eamos_slicer::slice(&net) {
-        Ok(s) => s,
-        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
-    };
-    let fleet = match &args.fleet {
-        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
-            Ok(f) => f,
-            Err(e) => return bad_input(&e.to_string()),
-        },
-        None => Fleet::default(),
-    };
-    eamos_exec::identity::bind(&mut slices, &fleet);
     let key = match signing_key(&args, &fleet) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),

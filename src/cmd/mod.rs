@@ -9,5 +9,6 @@ pub mod check;
 pub mod deploy;
 pub mod gen;
 pub mod keygen;
+pub mod mission;
 pub mod run;
 pub mod sim_vehicle;

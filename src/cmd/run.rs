@@ -18,11 +18,11 @@ use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use tokio::sync::mpsc;
 
 use eamos_exec::executor::{Progress, ProgressKind};
-use eamos_exec::fleet::Fleet;
+
+use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner::{self, RunOptions, RunReport, TransportKind};
 use eamos_exec::transport::GCS;
 use eamos_exec::Outcome;
-use eamos_lang::{SourceFile, Style};
 use eamos_petri::net::TransitionKind;
 use eamos_slicer::Slices;
 
@@ -79,11 +79,6 @@ pub struct Args {
     pub journal: Option<PathBuf>,
 }
 
-fn bad_input(message: &str) -> ExitCode {
-    eprintln!("error: {message}");
-    ExitCode::from(2)
-}
-
 pub fn run(args: Args) -> ExitCode {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         return bad_input(&format!(
@@ -101,38 +96,21 @@ pub fn run(args: Args) -> ExitCode {
     if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
         return bad_input("--startup-timeout must be zero or more seconds");
     }
-    let name = args.mission.display().to_string();
-    let text = match std::fs::read_to_string(&args.mission) {
-        Ok(t) => t,
-        Err(e) => return bad_input(&format!("cannot read {name}: {e}")),
+    let Mission {
+        source,
+        profiles,
+        net,
+        slices,
+        fleet,
+        ..
+    } = match mission::load(
+        &args.mission,
+        args.fleet.as_deref(),
+        std::io::stderr().is_terminal(),
+    ) {
+        Ok(m) => m,
+        Err(status) => return status,
     };
-    let source = SourceFile::new(name.clone(), text);
-    let profiles = eamos_mid::profiles::builtin();
-    let style = Style {
-        width: 100,
-        colour: std::io::stderr().is_terminal(),
-    };
-    let compiled = match eamos_lang::compile(&source, &profiles) {
-        Ok(c) => c,
-        Err(diags) => {
-            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
-            return ExitCode::from(2);
-        }
-    };
-    let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let mut slices = match eamos_slicer::slice(&net) {
-        Ok(s) => s,
-        Err(e) => return bad_input(&format!("{name}: cannot slice the mission: {e}")),
-    };
-    let fleet = match &args.fleet {
-        Some(path) => match Fleet::load(path, &slices.mission, &net.drones) {
-            Ok(f) => f,
-            Err(e) => return bad_input(&e.to_string()),
-        },
-        None => Fleet::default(),
-    };
-    // Peers built from another mission or fleet file refuse this one.
-    eamos_exec::identity::bind(&mut slices, &fleet);
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match (&fleet.keys.gcs, &args.fleet) {
