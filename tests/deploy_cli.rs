@@ -1,7 +1,9 @@
 //! The roll-out: `eamos agent --drone D` processes wait for their slices,
 //! `eamos deploy` (or, where a test must send something a real ground
 //! station never would, the roll-out library) sends them over zenoh on
-//! loopback, signed with a key from `eamos keygen`.
+//! loopback, signed with a key from `eamos keygen`. `eamos abort` (or,
+//! for commands it would never send, the abort library) aborts a deployed
+//! mission.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -9,13 +11,28 @@ use std::time::{Duration, Instant};
 
 use assert_cmd::cargo::CommandCargoExt;
 
-use eamos_exec::deploy::{Answer, Delivery, RollOut, SliceBundle};
+use serde_json::Value;
+
+use eamos_exec::abort::{self, AbortCommand};
+use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
 use eamos_exec::fleet::Fleet;
-use eamos_exec::runner::RunOptions;
+use eamos_exec::runner::{self, RunOptions};
+use eamos_exec::transport::GCS;
+use eamos_exec::Outcome;
 use eamos_seal::{GroundKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
 use eamos_slicer::Slices;
 
 const DRONES: [&str; 2] = ["Drone1", "Drone2"];
+
+/// The drones of `examples/dropout.go`, whose Lead flies 100 m: long
+/// enough to abort it on the way.
+const DROPOUT: [&str; 3] = ["Free", "Lead", "Follow"];
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
+}
 
 fn paper(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -82,25 +99,48 @@ impl Rig {
 
     /// Starts one agent per drone, with `fleet` (the rig's by default).
     fn agents(&self, fleet: Option<&Path>) -> Agents {
-        let mut agents = Agents(Vec::new());
-        for d in DRONES {
-            let child = Command::cargo_bin("eamos")
+        Agents(
+            DRONES
+                .iter()
+                .map(|d| (d.to_string(), self.agent(d, fleet)))
+                .collect(),
+        )
+    }
+
+    /// Starts the agent of `drone`; its output goes to `<drone>.out`
+    /// (appended to, so that a restarted agent's follows its first life's).
+    fn agent(&self, drone: &str, fleet: Option<&Path>) -> Child {
+        let file = |name: String| {
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(self.path(&name))
                 .unwrap()
-                .args(["agent", "--drone", d, "--fleet"])
-                .arg(fleet.unwrap_or(&self.fleet))
-                .arg("--out")
-                .arg(self.path("agents"))
-                .stdout(Stdio::from(
-                    std::fs::File::create(self.path(&format!("{d}.out"))).unwrap(),
-                ))
-                .stderr(Stdio::from(
-                    std::fs::File::create(self.path(&format!("{d}.err"))).unwrap(),
-                ))
-                .spawn()
-                .unwrap();
-            agents.0.push((d.to_string(), child));
-        }
-        agents
+        };
+        Command::cargo_bin("eamos")
+            .unwrap()
+            .args(["agent", "--drone", drone, "--fleet"])
+            .arg(fleet.unwrap_or(&self.fleet))
+            .arg("--out")
+            .arg(self.path("agents"))
+            .stdout(Stdio::from(file(format!("{drone}.out"))))
+            .stderr(Stdio::from(file(format!("{drone}.err"))))
+            .spawn()
+            .unwrap()
+    }
+
+    /// The records of `event` in the mission log of `drone`'s agent.
+    fn events(&self, mission: &str, drone: &str, event: &str) -> Vec<Value> {
+        let path = self
+            .path("agents")
+            .join(mission)
+            .join(format!("{drone}.mission.jsonl"));
+        std::fs::read_to_string(path)
+            .unwrap_or_default()
+            .lines()
+            .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+            .filter(|r| r["event"] == event)
+            .collect()
     }
 
     fn agent_output(&self, drone: &str) -> String {
@@ -153,13 +193,30 @@ fn stdout(o: &Output) -> String {
 
 /// Waits until every agent's output contains `what`.
 fn wait_for_agents_saying(rig: &Rig, what: &str, limit: Duration) {
+    wait_for(&DRONES, rig, what, limit)
+}
+
+/// Waits until the output of the agents of `drones` contains `what`.
+fn wait_for(drones: &[&str], rig: &Rig, what: &str, limit: Duration) {
     let start = Instant::now();
-    while !DRONES.iter().all(|d| rig.agent_output(d).contains(what)) {
+    while !drones.iter().all(|d| rig.agent_output(d).contains(what)) {
         assert!(
             start.elapsed() < limit,
             "agents never said `{what}`: {:?}",
-            DRONES.map(|d| rig.agent_output(d))
+            drones
+                .iter()
+                .map(|d| rig.agent_output(d))
+                .collect::<Vec<_>>()
         );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Waits until `check` holds, polling.
+fn wait_until(what: &str, limit: Duration, mut check: impl FnMut() -> bool) {
+    let start = Instant::now();
+    while !check() {
+        assert!(start.elapsed() < limit, "never: {what}");
         std::thread::sleep(Duration::from_millis(100));
     }
 }
@@ -280,11 +337,7 @@ fn a_tampered_slice_and_an_unsigned_one_are_refused_each_with_its_reason() {
     runtime().block_on(async {
         let r = rollout(&fleet, None).await;
         let slice = slices.get("Drone1").unwrap();
-        let bundle = SliceBundle {
-            identity: slices.mission_id.clone(),
-            fleet: eamos_exec::identity::fleet_version(&fleet),
-            slice: slice.to_bytes(),
-        };
+        let bundle = r.offer(&slices, slice, true);
         // Signed, then one byte of the slice changed on the way.
         let mut tampered = key.seal(CONTEXT_SLICE, bundle.to_bytes()).to_bytes();
         let n = tampered.len();
@@ -428,4 +481,226 @@ fn deploying_with_a_key_the_fleet_does_not_trust_is_bad_input_before_anything_is
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("gcs.key"), "{err}");
+}
+
+/// Sends `command`, sealed by `key` (unsigned without), to every peer of
+/// the deployed mission of `slices`, as `eamos abort` would; how many
+/// copies were not acknowledged.
+fn send_abort(
+    slices: &Slices,
+    fleet: &Fleet,
+    command: &AbortCommand,
+    key: Option<GroundKey>,
+) -> usize {
+    let peers = runner::peers(slices);
+    let mut options = fleet.zenoh_options(&slices.mission_id, &peers, GCS);
+    options.connect = peers
+        .iter()
+        .flat_map(|p| fleet.listen(&slices.mission_id, &peers, p))
+        .collect();
+    options.listen = Vec::new();
+    let sealed = |k: Option<GroundKey>| -> abort::CommandSealer {
+        let k = k.map(std::sync::Arc::new);
+        std::sync::Arc::new(move |payload| abort::seal_command(k.as_deref(), payload))
+    };
+    runtime()
+        .block_on(abort::broadcast(
+            command,
+            &format!("test-abort-{}", command.nonce),
+            &peers,
+            &options,
+            Some(&sealed(key)),
+            Duration::from_secs(20),
+        ))
+        .unwrap()
+        .unacknowledged
+}
+
+#[test]
+fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_obeys_a_signed_one_with_one_failsafe(
+) {
+    let rig = Rig::new(true, "");
+    let mission = example("dropout.go");
+    let (slices, fleet) = rig.slices(&mission);
+    let _agents = Agents(
+        DROPOUT
+            .iter()
+            .map(|d| (d.to_string(), rig.agent(d, None)))
+            .collect(),
+    );
+    let deploy = Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("deploy")
+        .arg(&mission)
+        .arg("--fleet")
+        .arg(&rig.fleet)
+        .arg("--out")
+        .arg(rig.path("gcs"))
+        .args(["--speed", "10", "--max-duration", "300", "--wait", "60"])
+        .stdout(Stdio::from(
+            std::fs::File::create(rig.path("deploy.out")).unwrap(),
+        ))
+        .stderr(Stdio::from(
+            std::fs::File::create(rig.path("deploy.err")).unwrap(),
+        ))
+        .spawn()
+        .unwrap();
+    // Killed with the agents if a check fails.
+    let mut deploy = Agents(vec![("deploy".to_string(), deploy)]);
+    wait_for(&DROPOUT, &rig, "started mission", Duration::from_secs(120));
+    wait_until("Lead flies its 100 m leg", Duration::from_secs(120), || {
+        rig.events("Dropout", "Lead", "action_started")
+            .iter()
+            .any(|e| e["action"] == "FlyByX")
+    });
+
+    let issued_by = "a test that is not the ground station";
+    let unsigned = AbortCommand::new(&slices.mission_id, issued_by);
+    assert_eq!(send_abort(&slices, &fleet, &unsigned, None), 0);
+    let stranger = GroundKey::generate().unwrap();
+    let foreign = AbortCommand::new(&slices.mission_id, issued_by);
+    assert_eq!(send_abort(&slices, &fleet, &foreign, Some(stranger)), 0);
+    // Signed by the ground station, but in a flight that ended before this
+    // one began: a recording played back.
+    let mut recorded = AbortCommand::new(&slices.mission_id, issued_by);
+    recorded.issued_at_ms -= 10 * abort::ABORT_CLOCK_SKEW_MS;
+    assert_eq!(
+        send_abort(&slices, &fleet, &recorded, Some(rig.key("gcs.key"))),
+        0
+    );
+    for d in DROPOUT {
+        wait_until(
+            &format!("{d} refuses three aborts"),
+            Duration::from_secs(60),
+            || rig.events("Dropout", d, "abort_refused").len() >= 3,
+        );
+        let refused: Vec<String> = rig
+            .events("Dropout", d, "abort_refused")
+            .iter()
+            .map(|e| e["reason"].as_str().unwrap_or_default().to_string())
+            .collect();
+        for why in ["not signed", "unknown key", "replayed abort command"] {
+            assert!(
+                refused.iter().any(|r| r.contains(why)),
+                "{d}: no refusal saying `{why}`: {refused:?}"
+            );
+        }
+        assert!(rig.events("Dropout", d, "failsafe").is_empty(), "{d}");
+        assert!(rig.events("Dropout", d, "abort_received").is_empty(), "{d}");
+    }
+    assert!(
+        !rig.agent_output("Lead").contains("ended"),
+        "Lead flies on: {}",
+        rig.agent_output("Lead")
+    );
+
+    // `eamos abort` signs with the key beside the fleet's public key.
+    let out = Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("abort")
+        .arg(&mission)
+        .arg("--fleet")
+        .arg(&rig.fleet)
+        .args(["--timeout", "20"])
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{said}");
+    assert!(said.contains("0 not acknowledged"), "{said}");
+    wait_for(&DROPOUT, &rig, "ended", Duration::from_secs(120));
+    for d in DROPOUT {
+        let received = rig.events("Dropout", d, "abort_received");
+        assert_eq!(received.len(), 1, "{d}: {received:?}");
+        let failsafe = rig.events("Dropout", d, "failsafe");
+        assert_eq!(failsafe.len(), 1, "{d}: {failsafe:?}");
+        assert_eq!(failsafe[0]["failsafe"], "land", "{d}");
+        assert!(!rig.agent_output(d).contains("ended: completed"), "{d}");
+    }
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = deploy.0[0].1.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "eamos deploy did not end after the abort"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert_eq!(status.code(), Some(1), "an aborted mission is no success");
+}
+
+#[test]
+fn a_recorded_offer_and_start_played_back_after_the_flight_are_refused_even_by_a_restarted_agent() {
+    let rig = Rig::new(true, "");
+    let mut agents = rig.agents(None);
+    let (slices, fleet) = rig.slices(&paper("experiment_b.go"));
+    let drones: Vec<String> = DRONES.map(String::from).to_vec();
+    let run = RunOptions {
+        speed: 50.0,
+        max_duration: Some(600.0),
+        out: rig.path("gcs"),
+        ..RunOptions::default()
+    };
+    // The ground station's deploy, recorded envelope by envelope.
+    let (offers, start) = runtime().block_on(async {
+        let r = rollout(&fleet, Some(rig.key("gcs.key"))).await;
+        let mut offers = Vec::new();
+        for d in DRONES {
+            let offer = r.seal_offer(&r.offer(&slices, slices.get(d).unwrap(), true));
+            assert!(matches!(
+                r.send_sealed_slice(d, offer.clone()).await,
+                Delivery::Sent { .. }
+            ));
+            offers.push((d, offer));
+        }
+        let start = r.seal_start(&r.start_command(&slices, &run));
+        for (d, a) in r.send_start(&drones, start.clone()).await {
+            assert!(matches!(a, Answer::Accepted { .. }), "{d}: {a:?}");
+        }
+        r.close().await;
+        let profiles = eamos_mid::profiles::builtin();
+        let report = deploy::fly_ground_station(&slices, &fleet, &profiles, &run)
+            .await
+            .unwrap();
+        assert_eq!(report.reports[0].outcome, Outcome::Completed);
+        (offers, start)
+    });
+    wait_for_agents_saying(&rig, "ended: completed", Duration::from_secs(60));
+
+    // Played back to the agents that flew it.
+    let replay = |what: &str| {
+        runtime().block_on(async {
+            let r = rollout(&fleet, None).await;
+            for (d, offer) in &offers {
+                match r.send_sealed_slice(d, offer.clone()).await {
+                    Delivery::Refused { reason } => {
+                        assert!(reason.starts_with("replayed slice"), "{what} {d}: {reason}")
+                    }
+                    other => panic!("{what} {d}: a recorded offer was {other}"),
+                }
+            }
+            for (d, a) in r.send_start(&drones, start.clone()).await {
+                match a {
+                    Answer::Refused { reason } => assert!(
+                        reason.starts_with("replayed start command"),
+                        "{what} {d}: {reason}"
+                    ),
+                    other => panic!("{what} {d}: a recorded start was {other:?}"),
+                }
+            }
+            r.close().await;
+        })
+    };
+    replay("after the flight:");
+
+    // Drone1's agent restarts, holding nothing: its disk remembers.
+    let (_, first) = &mut agents.0[0];
+    first.kill().unwrap();
+    first.wait().unwrap();
+    agents.0[0].1 = rig.agent("Drone1", None);
+    replay("after a restart:");
+    let said = rig.agent_output("Drone1");
+    assert_eq!(said.matches("started mission").count(), 1, "{said}");
+    assert!(said.contains("refused a start command: replayed"), "{said}");
 }

@@ -13,8 +13,14 @@
 //!   [`AbortCommand`] naming the mission identity, carried in the token's
 //!   colour (see [`pack`]), sealed by the ground station when the fleet
 //!   has a key. A drone refuses a command of another mission, and, when it
-//!   is given a [`CommandOpener`], a command that is unsigned or altered;
-//!   a refused command is logged and the flight goes on.
+//!   is given a [`CommandOpener`], a command that is unsigned, signed by
+//!   another key, altered, or issued before the flight began (a replay,
+//!   see [`opener_since`]); a refused command is logged and the flight
+//!   goes on.
+//!
+//! A peer abort carries no signature: drones hold no key. What vouches for
+//! a peer is the transport (zenoh over mutual TLS when the fleet names
+//! certificates), not the seal.
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -38,17 +44,36 @@ pub struct AbortCommand {
     /// Makes two commands of one mission distinct (the bridges deliver a
     /// colour once per sender).
     pub nonce: u64,
+    /// When it was issued, in milliseconds since the Unix epoch on the
+    /// issuer's clock: signed with the rest, so that a recorded command
+    /// cannot be replayed into a later flight (see [`opener_since`]).
+    pub issued_at_ms: u64,
 }
+
+/// Milliseconds since the Unix epoch on this machine's clock (0 if the
+/// clock is set before 1970).
+pub fn unix_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64)
+}
+
+/// How much earlier than the flight's start an abort command may be
+/// issued and still be obeyed. The two times come from two clocks (the
+/// issuer's, and the ground station's or the drone's), which in the field
+/// are only roughly in step: refusing a genuine abort because of a slow
+/// clock would be worse than the narrow replay window this leaves (a
+/// command recorded in a flight that ended less than this before the next
+/// one began).
+pub const ABORT_CLOCK_SKEW_MS: u64 = 60_000;
 
 impl AbortCommand {
     pub fn new(mission: &str, issued_by: &str) -> AbortCommand {
-        let nonce = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos() as u64);
         AbortCommand {
             mission: mission.to_string(),
             issued_by: issued_by.to_string(),
-            nonce,
+            nonce: rand::random(),
+            issued_at_ms: unix_ms(),
         }
     }
 
@@ -92,20 +117,82 @@ pub fn unpack(colour: &[u32]) -> Option<Vec<u8>> {
     Some(bytes)
 }
 
-/// Seals commands with the ground station's key (`eamos abort --key`).
-pub fn sealer(key: eamos_seal::GroundKey) -> CommandSealer {
-    Arc::new(move |payload| key.seal(eamos_seal::CONTEXT_ABORT, payload).to_bytes())
+/// Seals a command's payload as the ground station sends it: signed
+/// when it has a key, an unsigned envelope otherwise (which only agents
+/// that trust no key accept).
+pub fn seal_command(key: Option<&eamos_seal::GroundKey>, payload: Vec<u8>) -> Vec<u8> {
+    match key {
+        Some(k) => k.seal(eamos_seal::CONTEXT_ABORT, payload),
+        None => eamos_seal::Sealed::unsigned(eamos_seal::CONTEXT_ABORT, payload),
+    }
+    .to_bytes()
 }
 
-/// Obeys only commands sealed by `trusted` (the fleet's `[keys] gcs`).
+/// Seals commands with the ground station's key (`eamos abort`, and the
+/// ground station of `eamos deploy` when it is stopped).
+pub fn sealer(key: Arc<eamos_seal::GroundKey>) -> CommandSealer {
+    Arc::new(move |payload| seal_command(Some(&key), payload))
+}
+
+/// Obeys only commands sealed by `trusted` (the fleet's `[keys] gcs`) and
+/// issued since this opener was made: `eamos run` makes it as the flight
+/// begins, on the drone's own clock.
 pub fn opener(trusted: eamos_seal::PublicKey) -> CommandOpener {
+    opener_since(trusted, unix_ms())
+}
+
+/// Obeys only commands sealed by `trusted` and issued no earlier than
+/// `flight_began_ms` (less [`ABORT_CLOCK_SKEW_MS`]).
+///
+/// Why a time and not a list of commands seen: an abort is passed on from
+/// peer to peer by design, so a drone sees one genuine command several
+/// times, and a command replayed within the flight it was issued for asks
+/// for what is being done already (the failsafe runs once). The harm a
+/// replay can do is to abort a *later* flight of the same mission version,
+/// which has the same mission identity; the time the command was issued,
+/// signed with it, tells the two apart without the drone keeping anything
+/// across flights. A deployed agent takes `flight_began_ms` from the signed
+/// start command, so both times come from the ground station's clock.
+pub fn opener_since(trusted: eamos_seal::PublicKey, flight_began_ms: u64) -> CommandOpener {
     Arc::new(move |wire| {
         let sealed = eamos_seal::Sealed::from_bytes(wire).map_err(|e| e.to_string())?;
-        sealed
+        let payload = sealed
             .open(&trusted, eamos_seal::CONTEXT_ABORT)
-            .map(<[u8]>::to_vec)
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        let command = AbortCommand::from_payload(payload)?;
+        if command.issued_at_ms.saturating_add(ABORT_CLOCK_SKEW_MS) < flight_began_ms {
+            return Err(format!(
+                "replayed abort command: it was issued at {} by {}, {} s before this flight began ({}); a genuine abort is issued during the flight",
+                when(command.issued_at_ms),
+                command.issued_by,
+                (flight_began_ms - command.issued_at_ms) / 1000,
+                when(flight_began_ms),
+            ));
+        }
+        Ok(payload.to_vec())
     })
+}
+
+/// A time for a message, in UTC: `2026-11-22 03:41:07 UTC`.
+pub fn when(ms: u64) -> String {
+    let secs = ms / 1000;
+    let (days, rem) = (secs / 86_400, secs % 86_400);
+    // Days to a civil date (H. Hinnant's algorithm, for days since 1970).
+    let z = days as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02}:{:02} UTC",
+        rem / 3600,
+        rem / 60 % 60,
+        rem % 60
+    )
 }
 
 /// Who aborted, once an abort is accepted.
@@ -269,15 +356,19 @@ mod tests {
         let other = eamos_seal::GroundKey::generate().unwrap();
         let open = opener(key.public());
         let c = AbortCommand::new("M-1", "operator");
-        let signed = pack(&sealer(key)(c.payload()));
+        let signed = pack(&sealer(Arc::new(key))(c.payload()));
         assert_eq!(
             accept("abort-1", &signed, "M-1", &peers(), Some(&open)),
             Ok(AbortOrigin::Command(c.clone()))
         );
-        let forged = pack(&sealer(other)(c.payload()));
-        assert!(accept("abort-1", &forged, "M-1", &peers(), Some(&open)).is_err());
-        let unsigned = pack(&c.payload());
-        assert!(accept("abort-1", &unsigned, "M-1", &peers(), Some(&open)).is_err());
+        let forged = pack(&sealer(Arc::new(other))(c.payload()));
+        let e = accept("abort-1", &forged, "M-1", &peers(), Some(&open)).unwrap_err();
+        assert!(e.contains("refused: unknown key"), "{e}");
+        let unsigned = pack(&seal_command(None, c.payload()));
+        let e = accept("abort-1", &unsigned, "M-1", &peers(), Some(&open)).unwrap_err();
+        assert!(e.contains("refused: not signed"), "{e}");
+        let bare = pack(&c.payload());
+        assert!(accept("abort-1", &bare, "M-1", &peers(), Some(&open)).is_err());
         let mut altered = unpack(&signed).unwrap();
         let last = altered.len() - 1;
         altered[last] ^= 1;
@@ -298,5 +389,41 @@ mod tests {
         let mut signed = vec![0xA5];
         signed.extend(c.payload());
         assert!(accept("abort-1", &pack(&signed), "M-1", &peers(), Some(&opener)).is_ok());
+    }
+
+    #[test]
+    fn an_abort_command_issued_before_the_flight_began_is_refused_as_a_replay() {
+        let key = eamos_seal::GroundKey::generate().unwrap();
+        let began = 1_800_000_000_000;
+        let open = opener_since(key.public(), began);
+        let mut old = AbortCommand::new("M-1", "operator");
+        old.issued_at_ms = began - ABORT_CLOCK_SKEW_MS - 1;
+        let replayed = pack(&seal_command(Some(&key), old.payload()));
+        let e = accept("abort-9", &replayed, "M-1", &peers(), Some(&open)).unwrap_err();
+        assert!(e.contains("replayed abort command"), "{e}");
+        assert!(e.contains("2027-01-15 08:00:00 UTC"), "{e}");
+        // Within the clock allowance, and during the flight: obeyed.
+        for at in [began - ABORT_CLOCK_SKEW_MS, began + 5_000] {
+            let mut c = old.clone();
+            c.issued_at_ms = at;
+            let wire = pack(&seal_command(Some(&key), c.payload()));
+            assert!(accept("abort-9", &wire, "M-1", &peers(), Some(&open)).is_ok());
+        }
+    }
+
+    #[test]
+    fn two_abort_commands_of_one_mission_differ() {
+        let (a, b) = (
+            AbortCommand::new("M-1", "operator"),
+            AbortCommand::new("M-1", "operator"),
+        );
+        assert_ne!(a.payload(), b.payload());
+    }
+
+    #[test]
+    fn times_in_messages_are_civil_dates_in_utc() {
+        assert_eq!(when(0), "1970-01-01 00:00:00 UTC");
+        assert_eq!(when(951_782_400_000), "2000-02-29 00:00:00 UTC");
+        assert_eq!(when(1_800_000_000_000), "2027-01-15 08:00:00 UTC");
     }
 }

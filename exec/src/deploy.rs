@@ -28,6 +28,22 @@
 //! digest is not sent anything, and the start command binds the slice it
 //! keeps to the new mission identity. The start command lists every drone's
 //! digest, so an agent holding any other slice refuses to start.
+//!
+//! # Replay
+//!
+//! A signature says who sent a message, not when: a recorded signed start
+//! would fly the mission again, and a recorded abort would end a later
+//! flight of the same version. So every `eamos deploy` is a *deploy
+//! session* with a fresh random id ([`RollOut::session`]): each slice
+//! offer (a new slice, or, for a drone whose part did not change, a
+//! [`SliceBundle`] without one that says "keep yours") and the start name
+//! it, inside the signature. An agent starts only the session its slice
+//! was offered in, and never starts one session twice: it writes each
+//! session it starts to `<out>/<drone>.sessions` before it answers, so a
+//! restarted agent refuses it too. Sessions rather than clocks, because a
+//! drone's clock and the ground station's need not agree for this; the
+//! only time compared is the abort's against the start, both issued by the
+//! ground station (see [`crate::abort::opener_since`]).
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -42,6 +58,8 @@ use zenoh::Session;
 use eamos_petri::net::Net;
 use eamos_profile::ProfileTable;
 use eamos_seal::{GroundKey, PublicKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
+
+use crate::abort;
 use eamos_slicer::{Slice, Slices};
 
 use crate::executor::Outcome;
@@ -58,23 +76,36 @@ pub fn rollout_key(drone: &str, what: &str) -> String {
     format!("eamos/rollout/{drone}/{what}")
 }
 
-/// A drone's slice as the ground station sends it, inside a sealed
+/// A drone's slice as the ground station offers it, inside a sealed
 /// envelope of context [`CONTEXT_SLICE`].
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SliceBundle {
     /// The mission identity the slice was cut for.
     pub identity: String,
     /// The digest of the fleet file it was built with.
     pub fleet: String,
-    /// The slice in its binary form (with its own checksum).
-    pub slice: Vec<u8>,
+    /// The deploy session offering it: the only one whose start the agent
+    /// will obey with this slice.
+    pub session: String,
+    /// The digest of the slice offered.
+    pub digest: String,
+    /// The slice in its binary form (with its own checksum); `None` when
+    /// the agent already holds the slice of `digest` and is to keep it for
+    /// this session (partial redeployment).
+    pub slice: Option<Vec<u8>>,
 }
 
 /// Start the mission: sealed with context [`CONTEXT_START`].
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StartCommand {
     pub identity: String,
     pub fleet: String,
+    /// The deploy session whose slices are to fly; started at most once.
+    pub session: String,
+    /// When the ground station issued it (milliseconds since the Unix
+    /// epoch, on its clock): abort commands issued well before it belong
+    /// to an earlier flight.
+    pub issued_at_ms: u64,
     /// The digest of every drone's slice in this version of the mission.
     pub digests: BTreeMap<String, String>,
     /// Simulated seconds per real second.
@@ -87,12 +118,46 @@ impl SliceBundle {
     pub fn to_bytes(&self) -> Vec<u8> {
         encode(self)
     }
+
+    /// Never panics: bytes that are not a bundle are an error.
+    pub fn from_bytes(bytes: &[u8]) -> Result<SliceBundle, String> {
+        decode(bytes).map_err(|e| format!("not a slice bundle: {e}"))
+    }
 }
 
 impl StartCommand {
     pub fn to_bytes(&self) -> Vec<u8> {
         encode(self)
     }
+
+    /// Never panics: bytes that are not a start command are an error.
+    pub fn from_bytes(bytes: &[u8]) -> Result<StartCommand, String> {
+        decode(bytes).map_err(|e| format!("not a start command: {e}"))
+    }
+}
+
+impl AgentStatus {
+    /// Never panics: what an agent answered, or why it is garbled.
+    pub fn from_bytes(bytes: &[u8]) -> Result<AgentStatus, String> {
+        decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+impl Answer {
+    /// Never panics: what an agent answered, or why it is garbled.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Answer, String> {
+        decode(bytes).map_err(|e| e.to_string())
+    }
+}
+
+/// Decodes a whole message: trailing bytes are an error, so that one
+/// message has one encoding.
+fn decode<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, String> {
+    let (v, rest) = postcard::take_from_bytes(bytes).map_err(|e| e.to_string())?;
+    if !rest.is_empty() {
+        return Err(format!("{} bytes after the message", rest.len()));
+    }
+    Ok(v)
 }
 
 /// What an agent holds, as it tells the ground station.
@@ -112,6 +177,8 @@ pub struct AgentStatus {
 pub struct Held {
     pub identity: String,
     pub digest: String,
+    /// The deploy session that offered it last.
+    pub session: String,
 }
 
 /// An agent's reply to a slice or a start command.
@@ -191,6 +258,35 @@ pub fn trusted_key(fleet: &Fleet, fleet_path: Option<&Path>) -> Result<Option<Pu
         .map_err(|e| format!("[keys] gcs: {e}"))
 }
 
+/// The ground station's secret key: `explicit` (a `--key` option), or the
+/// sibling with the extension `.key` of the public key the fleet names.
+/// A fleet that names a public key needs the matching secret key, or every
+/// agent would refuse what the ground station sends: that is an error
+/// here, before anything is sent.
+pub fn ground_key(
+    fleet: &Fleet,
+    fleet_path: Option<&Path>,
+    explicit: Option<&Path>,
+) -> Result<Option<GroundKey>, String> {
+    let path = match (explicit, &fleet.keys.gcs) {
+        (Some(k), _) => k.to_path_buf(),
+        (None, Some(public)) => resolve(fleet_path, public).with_extension("key"),
+        (None, None) => return Ok(None),
+    };
+    let key = GroundKey::load(&path).map_err(|e| e.to_string())?;
+    if let Some(trusted) = trusted_key(fleet, fleet_path)? {
+        if trusted != key.public() {
+            return Err(format!(
+                "{} is the secret key of {}, but the fleet file trusts {}: the agents would refuse whatever it signs",
+                path.display(),
+                key.public().fingerprint(),
+                trusted.fingerprint()
+            ));
+        }
+    }
+    Ok(Some(key))
+}
+
 /// A path of the fleet file, relative to its directory.
 pub fn resolve(fleet_path: Option<&Path>, p: &Path) -> PathBuf {
     match fleet_path.and_then(Path::parent) {
@@ -209,27 +305,6 @@ pub fn agent_fleet(text: &str, name: &str) -> Result<Fleet, crate::fleet::FleetE
         .map(|d| d.keys().cloned().collect())
         .unwrap_or_default();
     Fleet::parse(text, name, "the fleet", &named)
-}
-
-/// Opens a sealed abort command as an agent must: signed by `trusted` when
-/// a key is configured (see [`Sealed::open_with`]); the payload inside.
-/// This is the check behind the agents' abort path.
-pub fn open_abort(trusted: Option<&PublicKey>, wire: &[u8]) -> Result<Vec<u8>, String> {
-    let sealed = Sealed::from_bytes(wire).map_err(|e| e.to_string())?;
-    sealed
-        .open_with(trusted, eamos_seal::CONTEXT_ABORT)
-        .map(<[u8]>::to_vec)
-        .map_err(|e| e.to_string())
-}
-
-/// Seals an abort command's payload as the ground station sends it: signed
-/// when it has a key.
-pub fn seal_abort(key: Option<&GroundKey>, payload: Vec<u8>) -> Vec<u8> {
-    let sealed = match key {
-        Some(k) => k.seal(eamos_seal::CONTEXT_ABORT, payload),
-        None => Sealed::unsigned(eamos_seal::CONTEXT_ABORT, payload),
-    };
-    sealed.to_bytes()
 }
 
 // ---------------------------------------------------------------- agent --
@@ -295,11 +370,114 @@ fn outcome_text(o: &Outcome) -> String {
     }
 }
 
-#[derive(Default)]
+/// The slice an agent holds, and the deploy session that offered it.
+struct HeldSlice {
+    slice: Slice,
+    digest: String,
+    fleet: Fleet,
+    session: String,
+}
+
+impl HeldSlice {
+    fn held(&self) -> Held {
+        Held {
+            identity: self.slice.mission_id.clone(),
+            digest: self.digest.clone(),
+            session: self.session.clone(),
+        }
+    }
+}
+
 struct AgentState {
-    /// The slice held, its digest and the fleet it was checked against.
-    held: Option<(Slice, String, Fleet)>,
+    held: Option<HeldSlice>,
     flying: Option<String>,
+    sessions: Sessions,
+}
+
+/// The deploy sessions an agent has started. Kept on the agent's disk, so
+/// that a restarted agent, which holds no slice and no memory, still
+/// refuses a recorded offer and start played back to it.
+#[derive(Debug, Default)]
+pub struct Sessions {
+    path: Option<PathBuf>,
+    started: std::collections::BTreeSet<String>,
+}
+
+impl Sessions {
+    /// The sessions recorded in `path` (none if it does not exist yet).
+    pub fn load(path: &Path) -> Result<Sessions, String> {
+        let text = match std::fs::read_to_string(path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => String::new(),
+            Err(e) => return Err(format!("cannot read {}: {e}", path.display())),
+        };
+        Ok(Sessions {
+            path: Some(path.to_path_buf()),
+            started: text
+                .lines()
+                .filter_map(|l| l.split_whitespace().next())
+                .map(str::to_string)
+                .collect(),
+        })
+    }
+
+    pub fn contains(&self, session: &str) -> bool {
+        self.started.contains(session)
+    }
+
+    /// Records `session` as started, on the disk first: a start that
+    /// cannot be recorded is not obeyed.
+    pub fn record(&mut self, session: &str, identity: &str) -> Result<(), String> {
+        if let Some(path) = &self.path {
+            use std::io::Write;
+            let mut f = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path)
+                .and_then(|mut f| {
+                    writeln!(f, "{session} {identity}")?;
+                    Ok(f)
+                })
+                .map_err(|e| format!("cannot record the session in {}: {e}", path.display()))?;
+            f.flush()
+                .and_then(|()| f.sync_all())
+                .map_err(|e| format!("cannot record the session in {}: {e}", path.display()))?;
+        }
+        self.started.insert(session.to_string());
+        Ok(())
+    }
+}
+
+/// A deploy session id as the ground station makes them: 32 hex digits.
+/// Anything else is refused before it is compared or written down.
+fn check_session(session: &str) -> Result<(), String> {
+    if session.len() == 32 && session.bytes().all(|b| b.is_ascii_hexdigit()) {
+        Ok(())
+    } else {
+        Err(format!(
+            "malformed deploy session `{}`: a session is 32 hex digits",
+            session.escape_debug()
+        ))
+    }
+}
+
+/// A fresh deploy session id.
+pub fn new_session() -> String {
+    format!("{:032x}", rand::random::<u128>())
+}
+
+/// What a slice offer asks of an agent.
+#[derive(Debug)]
+pub enum Offer {
+    /// Hold this slice, for this session.
+    New {
+        slice: Box<Slice>,
+        digest: String,
+        fleet: Box<Fleet>,
+        session: String,
+    },
+    /// Keep the slice held (it did not change), for this session.
+    Keep { digest: String, session: String },
 }
 
 /// The part of an agent that judges what it is sent: pure, so that every
@@ -322,19 +500,46 @@ impl Gate {
         )
     }
 
-    /// Checks a sealed slice; the slice, its digest and the fleet read
-    /// against the mission's drones.
-    pub fn check_slice(&self, bytes: &[u8]) -> Result<(Slice, String, Fleet), String> {
+    /// Checks a sealed slice offer against the slice held and the sessions
+    /// already started.
+    pub fn check_slice(
+        &self,
+        bytes: &[u8],
+        held: Option<&Held>,
+        started: &Sessions,
+    ) -> Result<Offer, String> {
         let sealed = Sealed::from_bytes(bytes).map_err(|e| e.to_string())?;
         let payload = sealed
             .open_with(self.trusted.as_ref(), CONTEXT_SLICE)
             .map_err(|e| e.to_string())?;
-        let bundle: SliceBundle =
-            postcard::from_bytes(payload).map_err(|e| format!("not a slice bundle: {e}"))?;
+        let bundle = SliceBundle::from_bytes(payload)?;
         if bundle.fleet != self.fleet_digest {
             return Err(self.wrong_fleet(&bundle.fleet));
         }
-        let slice = Slice::from_bytes(&bundle.slice).map_err(|e| format!("damaged slice: {e}"))?;
+        check_session(&bundle.session)?;
+        if started.contains(&bundle.session) {
+            return Err(format!(
+                "replayed slice: deploy session {} was started before by this agent, and a session flies once; every `eamos deploy` offers slices in a fresh session",
+                bundle.session
+            ));
+        }
+        let Some(bytes) = bundle.slice else {
+            return match held {
+                Some(h) if h.digest == bundle.digest => Ok(Offer::Keep {
+                    digest: bundle.digest,
+                    session: bundle.session,
+                }),
+                Some(h) => Err(format!(
+                    "no such slice: told to keep slice {}, but this agent holds {} (of {})",
+                    bundle.digest, h.digest, h.identity
+                )),
+                None => Err(format!(
+                    "no slice: told to keep slice {}, but this agent holds none",
+                    bundle.digest
+                )),
+            };
+        };
+        let slice = Slice::from_bytes(&bytes).map_err(|e| format!("damaged slice: {e}"))?;
         if slice.drone != self.drone {
             return Err(format!(
                 "this is {}'s slice, and this agent flies {}",
@@ -347,6 +552,13 @@ impl Gate {
                 slice.mission_id, bundle.identity
             ));
         }
+        let digest = slice_digest(&slice);
+        if digest != bundle.digest {
+            return Err(format!(
+                "damaged slice: its digest is {digest}, and the offer says {}",
+                bundle.digest
+            ));
+        }
         let fleet = Fleet::parse(
             &self.fleet_text,
             &self.fleet_name,
@@ -354,20 +566,36 @@ impl Gate {
             &slice.drones,
         )
         .map_err(|e| e.to_string())?;
-        let digest = slice_digest(&slice);
-        Ok((slice, digest, fleet))
+        Ok(Offer::New {
+            slice: Box::new(slice),
+            digest,
+            fleet: Box::new(fleet),
+            session: bundle.session,
+        })
     }
 
-    /// Checks a sealed start command against the slice held.
-    pub fn check_start(&self, bytes: &[u8], held: Option<&Held>) -> Result<StartCommand, String> {
+    /// Checks a sealed start command against the slice held and the
+    /// sessions already started.
+    pub fn check_start(
+        &self,
+        bytes: &[u8],
+        held: Option<&Held>,
+        started: &Sessions,
+    ) -> Result<StartCommand, String> {
         let sealed = Sealed::from_bytes(bytes).map_err(|e| e.to_string())?;
         let payload = sealed
             .open_with(self.trusted.as_ref(), CONTEXT_START)
             .map_err(|e| e.to_string())?;
-        let start: StartCommand =
-            postcard::from_bytes(payload).map_err(|e| format!("not a start command: {e}"))?;
+        let start = StartCommand::from_bytes(payload)?;
         if start.fleet != self.fleet_digest {
             return Err(self.wrong_fleet(&start.fleet));
+        }
+        check_session(&start.session)?;
+        if started.contains(&start.session) {
+            return Err(format!(
+                "replayed start command: deploy session {} of {} was started before by this agent, and a session flies once",
+                start.session, start.identity
+            ));
         }
         let Some(held) = held else {
             return Err(format!(
@@ -376,19 +604,30 @@ impl Gate {
             ));
         };
         match start.digests.get(&self.drone) {
-            None => Err(format!(
-                "wrong mission version: {} has no part for {}",
-                start.identity, self.drone
-            )),
-            Some(d) if *d != held.digest => Err(format!(
+            None => {
+                return Err(format!(
+                    "wrong mission version: {} has no part for {}",
+                    start.identity, self.drone
+                ))
+            }
+            Some(d) if *d != held.digest => {
+                return Err(format!(
                 "wrong mission version: {} gives {} the slice {}, and this agent holds {} (of {})",
                 start.identity, self.drone, d, held.digest, held.identity
-            )),
-            Some(_) if !(start.speed.is_finite() && start.speed > 0.0) => {
-                Err(format!("the speed {} is not above zero", start.speed))
+            ))
             }
-            Some(_) => Ok(start),
+            Some(_) => {}
         }
+        if start.session != held.session {
+            return Err(format!(
+                "start command of another deploy: it starts session {}, and this agent's slice was offered in session {}; an agent starts only the session that offered its slice (a recorded start played back is refused so)",
+                start.session, held.session
+            ));
+        }
+        if !(start.speed.is_finite() && start.speed > 0.0) {
+            return Err(format!("the speed {} is not above zero", start.speed));
+        }
+        Ok(start)
     }
 }
 
@@ -446,7 +685,15 @@ pub async fn run_agent(
         fleet_digest: fleet_version(&config.fleet),
         trusted: config.trusted.clone(),
     });
-    let state: Arc<Mutex<AgentState>> = Arc::default();
+    std::fs::create_dir_all(&config.out)
+        .map_err(|e| DeployError::Setup(format!("cannot create {}: {e}", config.out.display())))?;
+    let sessions = Sessions::load(&config.out.join(format!("{}.sessions", config.drone)))
+        .map_err(DeployError::Setup)?;
+    let state = Arc::new(Mutex::new(AgentState {
+        held: None,
+        flying: None,
+        sessions,
+    }));
     let zerr = |e: zenoh::Error| DeployError::Open(e.to_string());
     let status_q = session
         .declare_queryable(rollout_key(&config.drone, "status"))
@@ -485,10 +732,7 @@ pub async fn run_agent(
                         drone: config.drone.clone(),
                         fleet: gate.fleet_digest.clone(),
                         trusts: gate.trusted.as_ref().map(PublicKey::fingerprint),
-                        holds: s.held.as_ref().map(|(slice, digest, _)| Held {
-                            identity: slice.mission_id.clone(),
-                            digest: digest.clone(),
-                        }),
+                        holds: s.held.as_ref().map(HeldSlice::held),
                         flying: s.flying.clone(),
                     }
                 };
@@ -499,15 +743,22 @@ pub async fn run_agent(
                 let answer = {
                     let mut s = state.lock().expect("agent state");
                     let flying = s.flying.clone();
-                    match (flying, gate.check_slice(&bytes)) {
+                    let held = s.held.as_ref().map(HeldSlice::held);
+                    match (flying, gate.check_slice(&bytes, held.as_ref(), &s.sessions)) {
                         (Some(m), _) => Answer::Refused { reason: format!("busy: flying {m}") },
                         (None, Err(reason)) => Answer::Refused { reason },
-                        (None, Ok((slice, digest, fleet))) => {
+                        (None, Ok(Offer::New { slice, digest, fleet, session })) => {
                             let _ = events.send(AgentEvent::Accepted {
                                 mission: slice.mission_id.clone(),
                                 digest: digest.clone(),
                             });
-                            s.held = Some((slice, digest.clone(), fleet));
+                            s.held = Some(HeldSlice { slice: *slice, digest: digest.clone(), fleet: *fleet, session });
+                            Answer::Accepted { digest }
+                        }
+                        (None, Ok(Offer::Keep { digest, session })) => {
+                            if let Some(h) = s.held.as_mut() {
+                                h.session = session;
+                            }
                             Answer::Accepted { digest }
                         }
                     }
@@ -521,21 +772,25 @@ pub async fn run_agent(
                 let bytes = q.payload().map(|p| p.to_bytes().to_vec()).unwrap_or_default();
                 let answer = {
                     let mut s = state.lock().expect("agent state");
-                    let held = s.held.as_ref().map(|(slice, digest, _)| Held {
-                        identity: slice.mission_id.clone(),
-                        digest: digest.clone(),
-                    });
+                    let held = s.held.as_ref().map(HeldSlice::held);
                     let flying = s.flying.clone();
-                    match (flying, gate.check_start(&bytes, held.as_ref())) {
-                        (Some(m), _) => Answer::Refused { reason: format!("busy: flying {m}") },
-                        (None, Err(reason)) => Answer::Refused { reason },
-                        (None, Ok(start)) => {
+                    let checked = match flying {
+                        Some(m) => Err(format!("busy: flying {m}")),
+                        None => gate
+                            .check_start(&bytes, held.as_ref(), &s.sessions)
+                            .and_then(|start| {
+                                s.sessions.record(&start.session, &start.identity)?;
+                                Ok(start)
+                            }),
+                    };
+                    match checked {
+                        Err(reason) => Answer::Refused { reason },
+                        Ok(start) => {
                             let (slice, digest, fleet) = {
-                                let (slice, digest, fleet) =
-                                    s.held.as_mut().expect("checked: a slice is held");
+                                let h = s.held.as_mut().expect("checked: a slice is held");
                                 // The slice kept from an earlier version joins this one.
-                                slice.mission_id = start.identity.clone();
-                                (slice.clone(), digest.clone(), fleet.clone())
+                                h.slice.mission_id = start.identity.clone();
+                                (h.slice.clone(), h.digest.clone(), h.fleet.clone())
                             };
                             s.flying = Some(start.identity.clone());
                             let _ = events.send(AgentEvent::Started { identity: start.identity.clone() });
@@ -574,6 +829,12 @@ async fn fly(
         seed: start.seed,
         out: config.out.join(&slice.mission),
         stop: stop.child_token(),
+        // The flight begins when the ground station issued its start: an
+        // abort issued before that is a recording of an earlier flight's.
+        abort_opener: config
+            .trusted
+            .clone()
+            .map(|k| abort::opener_since(k, start.issued_at_ms)),
         ..RunOptions::default()
     };
     let outcome =
@@ -623,20 +884,34 @@ impl fmt::Display for Delivery {
 
 /// The ground station's end of the roll-out link.
 pub struct RollOut {
-    session: Session,
+    link: Session,
     key: Option<Arc<GroundKey>>,
     fleet_digest: String,
+    session: String,
 }
 
 impl RollOut {
     /// Listens on the fleet's roll-out endpoints.
     pub async fn open(fleet: &Fleet, key: Option<GroundKey>) -> Result<RollOut, DeployError> {
-        let session = open_session(&rollout_options(fleet, GCS)).await?;
+        let link = open_session(&rollout_options(fleet, GCS)).await?;
         Ok(RollOut {
-            session,
+            link,
             key: key.map(Arc::new),
             fleet_digest: fleet_version(fleet),
+            session: new_session(),
         })
+    }
+
+    /// Seals the abort the ground station sends when it is stopped, with
+    /// this roll-out's key (none without one).
+    pub fn abort_sealer(&self) -> Option<abort::CommandSealer> {
+        self.key.clone().map(abort::sealer)
+    }
+
+    /// This roll-out's deploy session: fresh for every one, named by each
+    /// offer and by the start (see the module's "Replay").
+    pub fn session(&self) -> &str {
+        &self.session
     }
 
     fn seal(&self, context: &str, payload: Vec<u8>) -> Vec<u8> {
@@ -654,7 +929,7 @@ impl RollOut {
         loop {
             let mut up = std::collections::BTreeSet::new();
             if let Ok(replies) = self
-                .session
+                .link
                 .liveliness()
                 .get("eamos/rollout/*/agent")
                 .timeout(Duration::from_millis(500))
@@ -691,7 +966,7 @@ impl RollOut {
         let mut last = String::from("no answer");
         for _ in 0..5 {
             let mut get = self
-                .session
+                .link
                 .get(rollout_key(drone, what))
                 .timeout(Duration::from_secs(5));
             if let Some(p) = &payload {
@@ -711,7 +986,7 @@ impl RollOut {
 
     pub async fn status(&self, drone: &str) -> Result<AgentStatus, String> {
         let bytes = self.ask(drone, "status", None).await?;
-        postcard::from_bytes(&bytes).map_err(|e| format!("garbled status from {drone}: {e}"))
+        AgentStatus::from_bytes(&bytes).map_err(|e| format!("garbled status from {drone}: {e}"))
     }
 
     /// Sends each drone of `slices` its slice unless it holds it already.
@@ -729,7 +1004,12 @@ impl RollOut {
                     if st.fleet == self.fleet_digest
                         && st.holds.as_ref().is_some_and(|h| h.digest == digest) =>
                 {
-                    Delivery::Unchanged { digest }
+                    // Told to keep it for this session; sent in full if the
+                    // agent lost it meanwhile.
+                    match self.send_offer(slices, slice, false).await {
+                        Delivery::Sent { digest } => Delivery::Unchanged { digest },
+                        _ => self.send_offer(slices, slice, true).await,
+                    }
                 }
                 Ok(_) => self.send_slice(slices, slice).await,
             };
@@ -740,20 +1020,36 @@ impl RollOut {
 
     /// Sends one slice and reports what the agent answered.
     pub async fn send_slice(&self, slices: &Slices, slice: &Slice) -> Delivery {
-        let bundle = SliceBundle {
+        self.send_offer(slices, slice, true).await
+    }
+
+    /// The offer of `slice` in this session: with the slice, or telling
+    /// the agent to keep the one it holds.
+    pub fn offer(&self, slices: &Slices, slice: &Slice, with_slice: bool) -> SliceBundle {
+        SliceBundle {
             identity: slices.mission_id.clone(),
             fleet: self.fleet_digest.clone(),
-            slice: slice.to_bytes(),
-        };
-        self.send_sealed_slice(&slice.drone, self.seal(CONTEXT_SLICE, encode(&bundle)))
-            .await
+            session: self.session.clone(),
+            digest: slice_digest(slice),
+            slice: with_slice.then(|| slice.to_bytes()),
+        }
+    }
+
+    /// The sealed envelope of `offer`, as the agents receive it.
+    pub fn seal_offer(&self, offer: &SliceBundle) -> Vec<u8> {
+        self.seal(CONTEXT_SLICE, encode(offer))
+    }
+
+    async fn send_offer(&self, slices: &Slices, slice: &Slice, with_slice: bool) -> Delivery {
+        let sealed = self.seal_offer(&self.offer(slices, slice, with_slice));
+        self.send_sealed_slice(&slice.drone, sealed).await
     }
 
     /// Sends an already sealed slice envelope (tests send altered ones).
     pub async fn send_sealed_slice(&self, drone: &str, sealed: Vec<u8>) -> Delivery {
         match self.ask(drone, "slice", Some(sealed)).await {
             Err(reason) => Delivery::Refused { reason },
-            Ok(bytes) => match postcard::from_bytes::<Answer>(&bytes) {
+            Ok(bytes) => match Answer::from_bytes(&bytes) {
                 Ok(Answer::Accepted { digest }) => Delivery::Sent { digest },
                 Ok(Answer::Refused { reason }) => Delivery::Refused { reason },
                 Err(e) => Delivery::Refused {
@@ -768,6 +1064,8 @@ impl RollOut {
         StartCommand {
             identity: slices.mission_id.clone(),
             fleet: self.fleet_digest.clone(),
+            session: self.session.clone(),
+            issued_at_ms: abort::unix_ms(),
             digests: slices
                 .distributed
                 .drones
@@ -782,8 +1080,13 @@ impl RollOut {
 
     /// Sends the start command to every drone; what each answered.
     pub async fn start(&self, slices: &Slices, run: &RunOptions) -> BTreeMap<String, Answer> {
-        let sealed = self.seal(CONTEXT_START, encode(&self.start_command(slices, run)));
+        let sealed = self.seal_start(&self.start_command(slices, run));
         self.send_start(&slices.distributed.drones, sealed).await
+    }
+
+    /// The sealed envelope of `start`, as the agents receive it.
+    pub fn seal_start(&self, start: &StartCommand) -> Vec<u8> {
+        self.seal(CONTEXT_START, encode(start))
     }
 
     /// Sends a sealed start envelope to `drones` (tests send forged ones).
@@ -792,7 +1095,7 @@ impl RollOut {
         for d in drones {
             let a = match self.ask(d, "start", Some(sealed.clone())).await {
                 Err(reason) => Answer::Refused { reason },
-                Ok(bytes) => postcard::from_bytes(&bytes).unwrap_or_else(|e| Answer::Refused {
+                Ok(bytes) => Answer::from_bytes(&bytes).unwrap_or_else(|e| Answer::Refused {
                     reason: format!("garbled answer: {e}"),
                 }),
             };
@@ -802,7 +1105,7 @@ impl RollOut {
     }
 
     pub async fn close(self) {
-        let _ = self.session.close().await;
+        let _ = self.link.close().await;
     }
 }
 
@@ -849,12 +1152,29 @@ mod tests {
         }
     }
 
-    fn sealed_slice(s: &Slices, drone: &str, key: Option<&GroundKey>) -> Vec<u8> {
-        let bundle = SliceBundle {
+    const SESSION: &str = "0123456789abcdef0123456789abcdef";
+
+    fn offer(s: &Slices, drone: &str, session: &str, with_slice: bool) -> SliceBundle {
+        let slice = s.get(drone).unwrap();
+        SliceBundle {
             identity: s.mission_id.clone(),
             fleet: fleet_version(&fleet(FLEET)),
-            slice: s.get(drone).unwrap().to_bytes(),
-        };
+            session: session.into(),
+            digest: slice_digest(slice),
+            slice: with_slice.then(|| slice.to_bytes()),
+        }
+    }
+
+    fn seal_offer(bundle: &SliceBundle, key: Option<&GroundKey>) -> Vec<u8> {
+        match key {
+            Some(k) => k.seal(CONTEXT_SLICE, encode(bundle)),
+            None => Sealed::unsigned(CONTEXT_SLICE, encode(bundle)),
+        }
+        .to_bytes()
+    }
+
+    fn sealed_slice(s: &Slices, drone: &str, key: Option<&GroundKey>) -> Vec<u8> {
+        let bundle = offer(s, drone, SESSION, true);
         let sealed = match key {
             Some(k) => k.seal(CONTEXT_SLICE, encode(&bundle)),
             None => Sealed::unsigned(CONTEXT_SLICE, encode(&bundle)),
@@ -867,9 +1187,19 @@ mod tests {
         let key = GroundKey::generate().unwrap();
         let s = slices(MISSION, &fleet(FLEET));
         let g = gate("D2", FLEET, Some(key.public()));
-        let (slice, digest, _) = g.check_slice(&sealed_slice(&s, "D2", Some(&key))).unwrap();
+        let offer = g.check_slice(&sealed_slice(&s, "D2", Some(&key)), None, &none());
+        let Ok(Offer::New {
+            slice,
+            digest,
+            session,
+            ..
+        }) = offer
+        else {
+            panic!("{offer:?}");
+        };
         assert_eq!(slice.drone, "D2");
         assert_eq!(digest, slice_digest(s.get("D2").unwrap()));
+        assert_eq!(session, SESSION);
     }
 
     #[test]
@@ -880,23 +1210,25 @@ mod tests {
         );
         let s = slices(MISSION, &fleet(FLEET));
         let g = gate("D2", FLEET, Some(key.public()));
-        let e = g.check_slice(&sealed_slice(&s, "D2", None)).unwrap_err();
+        let e = g
+            .check_slice(&sealed_slice(&s, "D2", None), None, &none())
+            .unwrap_err();
         assert!(e.starts_with("not signed"), "{e}");
         let e = g
-            .check_slice(&sealed_slice(&s, "D2", Some(&other)))
+            .check_slice(&sealed_slice(&s, "D2", Some(&other)), None, &none())
             .unwrap_err();
         assert!(e.starts_with("unknown key"), "{e}");
         let mut altered = sealed_slice(&s, "D2", Some(&key));
         let n = altered.len();
         altered[n / 2] ^= 0x01;
-        let e = g.check_slice(&altered).unwrap_err();
+        let e = g.check_slice(&altered, None, &none()).unwrap_err();
         assert!(
             e.starts_with("bad signature") || e.starts_with("not a sealed"),
             "{e}"
         );
         // Without a key, an unsigned slice passes.
         assert!(gate("D2", FLEET, None)
-            .check_slice(&sealed_slice(&s, "D2", None))
+            .check_slice(&sealed_slice(&s, "D2", None), None, &none())
             .is_ok());
     }
 
@@ -905,7 +1237,7 @@ mod tests {
         let s = slices(MISSION, &fleet(FLEET));
         let other = "[drones.D1]\nhome = { x = 5.0, y = 0.0, z = 0.0 }\n";
         let e = gate("D2", other, None)
-            .check_slice(&sealed_slice(&s, "D2", None))
+            .check_slice(&sealed_slice(&s, "D2", None), None, &none())
             .unwrap_err();
         assert!(e.starts_with("wrong mission version"), "{e}");
     }
@@ -914,7 +1246,7 @@ mod tests {
     fn another_drones_slice_is_refused() {
         let s = slices(MISSION, &fleet(FLEET));
         let e = gate("D1", FLEET, None)
-            .check_slice(&sealed_slice(&s, "D2", None))
+            .check_slice(&sealed_slice(&s, "D2", None), None, &none())
             .unwrap_err();
         assert!(e.contains("D2's slice") && e.contains("flies D1"), "{e}");
     }
@@ -929,10 +1261,13 @@ mod tests {
         let held = Held {
             identity: v1.mission_id.clone(),
             digest: slice_digest(v1.get("D2").unwrap()),
+            session: SESSION.into(),
         };
         let start = |s: &Slices| StartCommand {
             identity: s.mission_id.clone(),
             fleet: fleet_version(&f),
+            session: SESSION.into(),
+            issued_at_ms: 1,
             digests: ["D1", "D2"]
                 .iter()
                 .map(|d| (d.to_string(), slice_digest(s.get(d).unwrap())))
@@ -942,37 +1277,159 @@ mod tests {
             seed: 0,
         };
         let ok = key.seal(CONTEXT_START, encode(&start(&v1))).to_bytes();
-        assert!(g.check_start(&ok, Some(&held)).is_ok());
+        assert!(g.check_start(&ok, Some(&held), &none()).is_ok());
         let newer = key.seal(CONTEXT_START, encode(&start(&v2))).to_bytes();
-        let e = g.check_start(&newer, Some(&held)).unwrap_err();
+        let e = g.check_start(&newer, Some(&held), &none()).unwrap_err();
         assert!(e.starts_with("wrong mission version"), "{e}");
-        let e = g.check_start(&ok, None).unwrap_err();
+        let e = g.check_start(&ok, None, &none()).unwrap_err();
         assert!(e.starts_with("no slice"), "{e}");
         let unsigned = Sealed::unsigned(CONTEXT_START, encode(&start(&v1))).to_bytes();
-        let e = g.check_start(&unsigned, Some(&held)).unwrap_err();
+        let e = g.check_start(&unsigned, Some(&held), &none()).unwrap_err();
         assert!(e.starts_with("not signed"), "{e}");
         // A signed slice is no start command.
         let e = g
-            .check_start(&sealed_slice(&v1, "D2", Some(&key)), Some(&held))
+            .check_start(&sealed_slice(&v1, "D2", Some(&key)), Some(&held), &none())
             .unwrap_err();
         assert!(e.contains("expected a signed start command"), "{e}");
     }
 
+    fn none() -> Sessions {
+        Sessions::default()
+    }
+
+    /// D2 holding v1's slice, offered in `session`; the start of v1 in
+    /// `session`, signed by `key`.
+    fn held_and_start(key: &GroundKey, session: &str) -> (Slices, Held, Vec<u8>) {
+        let f = fleet(FLEET);
+        let v1 = slices(MISSION, &f);
+        let held = Held {
+            identity: v1.mission_id.clone(),
+            digest: slice_digest(v1.get("D2").unwrap()),
+            session: session.into(),
+        };
+        let start = StartCommand {
+            identity: v1.mission_id.clone(),
+            fleet: fleet_version(&f),
+            session: session.into(),
+            issued_at_ms: 1,
+            digests: ["D1", "D2"]
+                .iter()
+                .map(|d| (d.to_string(), slice_digest(v1.get(d).unwrap())))
+                .collect(),
+            speed: 20.0,
+            max_duration: None,
+            seed: 0,
+        };
+        let wire = key.seal(CONTEXT_START, encode(&start)).to_bytes();
+        (v1, held, wire)
+    }
+
     #[test]
-    fn an_abort_command_opens_only_when_signed_by_the_trusted_key() {
-        let (key, other) = (
-            GroundKey::generate().unwrap(),
-            GroundKey::generate().unwrap(),
-        );
-        let trusted = key.public();
-        let signed = seal_abort(Some(&key), b"abort M-1".to_vec());
-        assert_eq!(open_abort(Some(&trusted), &signed).unwrap(), b"abort M-1");
-        let e = open_abort(Some(&trusted), &seal_abort(None, b"abort M-1".to_vec())).unwrap_err();
-        assert!(e.starts_with("not signed"), "{e}");
-        let e = open_abort(Some(&trusted), &seal_abort(Some(&other), b"x".to_vec())).unwrap_err();
-        assert!(e.starts_with("unknown key"), "{e}");
-        assert!(open_abort(None, &seal_abort(None, b"x".to_vec())).is_ok());
-        assert!(open_abort(None, b"garbage").is_err());
+    fn a_start_replayed_after_its_session_was_started_is_refused_even_by_a_restarted_agent() {
+        let key = GroundKey::generate().unwrap();
+        let g = gate("D2", FLEET, Some(key.public()));
+        let (_, held, start) = held_and_start(&key, SESSION);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("D2.sessions");
+        let mut sessions = Sessions::load(&path).unwrap();
+        let ok = g.check_start(&start, Some(&held), &sessions).unwrap();
+        sessions.record(&ok.session, &ok.identity).unwrap();
+        let e = g.check_start(&start, Some(&held), &sessions).unwrap_err();
+        assert!(e.starts_with("replayed start command"), "{e}");
+        assert!(e.contains(SESSION), "{e}");
+        // The agent restarts: it remembers the session from its disk.
+        let restarted = Sessions::load(&path).unwrap();
+        let e = g.check_start(&start, Some(&held), &restarted).unwrap_err();
+        assert!(e.starts_with("replayed start command"), "{e}");
+    }
+
+    #[test]
+    fn a_slice_offer_of_a_session_already_started_is_refused_as_a_replay() {
+        let key = GroundKey::generate().unwrap();
+        let s = slices(MISSION, &fleet(FLEET));
+        let g = gate("D2", FLEET, Some(key.public()));
+        let mut sessions = Sessions::default();
+        sessions.record(SESSION, &s.mission_id).unwrap();
+        let e = g
+            .check_slice(&sealed_slice(&s, "D2", Some(&key)), None, &sessions)
+            .unwrap_err();
+        assert!(e.starts_with("replayed slice"), "{e}");
+    }
+
+    #[test]
+    fn a_start_of_another_deploy_session_than_the_one_that_offered_the_slice_is_refused() {
+        let key = GroundKey::generate().unwrap();
+        let g = gate("D2", FLEET, Some(key.public()));
+        let (_, held, start) = held_and_start(&key, SESSION);
+        let offered_later = Held {
+            session: "fedcba9876543210fedcba9876543210".into(),
+            ..held
+        };
+        let e = g
+            .check_start(&start, Some(&offered_later), &none())
+            .unwrap_err();
+        assert!(e.starts_with("start command of another deploy"), "{e}");
+        assert!(e.contains("fedcba98"), "{e}");
+    }
+
+    #[test]
+    fn a_keep_offer_rebinds_the_slice_held_to_the_new_session_and_no_other_slice() {
+        let key = GroundKey::generate().unwrap();
+        let s = slices(MISSION, &fleet(FLEET));
+        let g = gate("D2", FLEET, Some(key.public()));
+        let later = "fedcba9876543210fedcba9876543210";
+        let keep = seal_offer(&offer(&s, "D2", later, false), Some(&key));
+        let held = Held {
+            identity: s.mission_id.clone(),
+            digest: slice_digest(s.get("D2").unwrap()),
+            session: SESSION.into(),
+        };
+        match g.check_slice(&keep, Some(&held), &none()) {
+            Ok(Offer::Keep { digest, session }) => {
+                assert_eq!(digest, held.digest);
+                assert_eq!(session, later);
+            }
+            other => panic!("{other:?}"),
+        }
+        let e = g.check_slice(&keep, None, &none()).unwrap_err();
+        assert!(e.starts_with("no slice"), "{e}");
+        let other = Held {
+            digest: "0".repeat(32),
+            ..held
+        };
+        let e = g.check_slice(&keep, Some(&other), &none()).unwrap_err();
+        assert!(e.starts_with("no such slice"), "{e}");
+    }
+
+    #[test]
+    fn an_offer_whose_slice_does_not_match_its_digest_or_whose_session_is_malformed_is_refused() {
+        let s = slices(MISSION, &fleet(FLEET));
+        let g = gate("D2", FLEET, None);
+        let mut wrong = offer(&s, "D2", SESSION, true);
+        wrong.digest = "0".repeat(32);
+        let e = g
+            .check_slice(&seal_offer(&wrong, None), None, &none())
+            .unwrap_err();
+        assert!(e.starts_with("damaged slice"), "{e}");
+        let odd = offer(&s, "D2", "x\nD9 forged", true);
+        let e = g
+            .check_slice(&seal_offer(&odd, None), None, &none())
+            .unwrap_err();
+        assert!(e.starts_with("malformed deploy session"), "{e}");
+    }
+
+    #[test]
+    fn roll_out_messages_with_trailing_bytes_or_garbage_are_errors_not_panics() {
+        let s = slices(MISSION, &fleet(FLEET));
+        let mut b = offer(&s, "D2", SESSION, true).to_bytes();
+        assert!(SliceBundle::from_bytes(&b).is_ok());
+        b.push(0);
+        assert!(SliceBundle::from_bytes(&b).is_err());
+        for junk in [&[][..], &[0xff; 7], b"start"] {
+            assert!(StartCommand::from_bytes(junk).is_err());
+            assert!(AgentStatus::from_bytes(junk).is_err());
+            assert!(Answer::from_bytes(junk).is_err());
+        }
     }
 
     #[test]

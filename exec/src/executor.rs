@@ -33,7 +33,7 @@ use eamos_mid::{ActionCall, ActionError, Adapter, MissionClock, Telemetry};
 use eamos_petri::net::{Colour, Guard, TransitionKind};
 use eamos_slicer::Slice;
 
-use crate::abort::CommandOpener;
+use crate::abort::{CommandOpener, CommandSealer};
 use crate::guard::World;
 use crate::journal::{self, AgentJournal, Record};
 use crate::liveness::Liveness;
@@ -79,6 +79,10 @@ pub struct ExecutorOptions {
     /// Checks the ground station's seal on abort commands; without it an
     /// unsigned command of this mission is obeyed (see [`crate::abort`]).
     pub abort_opener: Option<CommandOpener>,
+    /// Seals the abort this peer sends when it is stopped, as a command of
+    /// the ground station: given to the ground station when it holds the
+    /// fleet's key, so that what it says is signed like `eamos abort`.
+    pub abort_sealer: Option<CommandSealer>,
     /// Where this agent journals what it does, and what the journal held
     /// when it started (see [`crate::journal`]).
     pub journal: Option<AgentJournal>,
@@ -96,6 +100,7 @@ impl Default for ExecutorOptions {
             stop: CancellationToken::new(),
             liveness: Liveness::default(),
             abort_opener: None,
+            abort_sealer: None,
             journal: None,
         }
     }
@@ -476,6 +481,21 @@ impl Executor {
         &self.slice.drone
     }
 
+    /// What this peer's abort says when it is stopped: a sealed command
+    /// when it has the ground station's key, a plain peer abort otherwise.
+    fn stop_colour(&self) -> eamos_petri::net::Colour {
+        match &self.options.abort_sealer {
+            Some(seal) => {
+                let command = crate::abort::AbortCommand::new(
+                    &self.slice.mission_id,
+                    &format!("{} (stopped)", self.me()),
+                );
+                crate::abort::pack(&seal(command.payload()))
+            }
+            None => Vec::new(),
+        }
+    }
+
     fn now(&self) -> f64 {
         self.clock.now()
     }
@@ -602,7 +622,8 @@ impl Executor {
             if outcome == Outcome::Stopped {
                 // Stopped here (Ctrl-C): the mission cannot go on, so
                 // every peer is told, as for a failed action.
-                self.abort_peers(None, Vec::new());
+                let colour = self.stop_colour();
+                self.abort_peers(None, colour);
             }
             self.failsafe_at_end(&outcome).await;
         }

@@ -20,7 +20,7 @@ use eamos_mid::{Adapter, Airframe, MissionClock, SimDrone, SimFleet, Uniform, Ve
 use eamos_profile::ProfileTable;
 use eamos_slicer::Slices;
 
-use crate::abort::CommandOpener;
+use crate::abort::{CommandOpener, CommandSealer};
 use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
 use crate::fleet::{AdapterKind, Fleet};
 use crate::journal::{self, AgentJournal, JournalError};
@@ -71,6 +71,9 @@ pub struct RunOptions {
     pub partition: Option<Partition>,
     /// Checks the ground station's seal on abort commands.
     pub abort_opener: Option<CommandOpener>,
+    /// Seals the abort this peer sends when stopped (the ground station's
+    /// key, when it has it).
+    pub abort_sealer: Option<CommandSealer>,
 }
 
 impl Default for RunOptions {
@@ -91,6 +94,7 @@ impl Default for RunOptions {
             journal: None,
             partition: None,
             abort_opener: None,
+            abort_sealer: None,
         }
     }
 }
@@ -437,6 +441,7 @@ fn executor_options(slices: &Slices, options: &RunOptions) -> ExecutorOptions {
         journal: None,
         liveness: Liveness::default(),
         abort_opener: options.abort_opener.clone(),
+        abort_sealer: options.abort_sealer.clone(),
     }
 }
 

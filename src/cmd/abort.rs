@@ -5,14 +5,19 @@
 //!
 //! The command joins the mission's zenoh network (the endpoints the fleet
 //! file gives, or the loopback ports derived from the mission) without
-//! becoming a peer of the mission. Exit status: 0 every peer acknowledged,
+//! becoming a peer of the mission. The command is signed with the ground
+//! station's key when the fleet names one, and carries the time it was
+//! issued: a drone refuses an abort issued before its flight began (a
+//! recording of an earlier flight's). Exit status: 0 every peer acknowledged,
 //! 1 some did not (down, or cut off), 2 bad input or no network.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 use std::time::Duration;
 
 use eamos_exec::abort::{self, AbortCommand};
+use eamos_exec::deploy;
 
 use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner;
@@ -26,9 +31,10 @@ pub struct Args {
     /// The fleet file the mission was started with (endpoints, keys).
     #[arg(long, value_name = "FLEET.toml")]
     pub fleet: Option<PathBuf>,
-    /// The ground station's secret key, to seal the command (needed when
-    /// the fleet file names the ground station's public key: the agents
-    /// then refuse unsealed commands).
+    /// The ground station's secret key, to seal the command [default: the
+    /// fleet's `[keys] gcs` public key with the extension `.key`]. When the
+    /// fleet file names the ground station's public key the drones refuse
+    /// unsealed commands, so a missing or wrong key is an error here.
     #[arg(long, value_name = "GCS.key")]
     pub key: Option<PathBuf>,
     /// How long to wait for every peer's acknowledgement.
@@ -45,12 +51,9 @@ pub fn run(args: Args) -> ExitCode {
             Ok(m) => m,
             Err(status) => return status,
         };
-    let sealer = match &args.key {
-        Some(path) => match eamos_seal::GroundKey::load(path) {
-            Ok(k) => Some(abort::sealer(k)),
-            Err(e) => return bad_input(&e.to_string()),
-        },
-        None => None,
+    let sealer = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
+        Ok(k) => k.map(|k| abort::sealer(Arc::new(k))),
+        Err(e) => return bad_input(&format!("cannot sign the abort: {e}")),
     };
     let peers = runner::peers(&slices);
     // Connect to every peer's endpoints, listen on none: this command is

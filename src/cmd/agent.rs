@@ -3,7 +3,10 @@
 //! deploy`, checks it (signed by the ground station key the fleet file
 //! names, built with this very fleet file, meant for this drone), keeps it,
 //! and flies it when the signed start command comes, as `eamos run --drone`
-//! would. Then it waits for the next version of the mission, unless
+//! would. While it flies, it obeys only abort commands signed by that key
+//! and issued since the start; it logs any other and flies on. It starts
+//! each deploy session once (remembered in `OUT/<drone>.sessions`), so a
+//! recorded start played back is refused. Then it waits for the next version of the mission, unless
 //! `--once`. Exit status: 0 stopped (or, with `--once`, the mission
 //! completed), 1 the mission did not complete, 2 bad input.
 
@@ -70,10 +73,13 @@ pub fn run(args: Args) -> ExitCode {
     };
     let drone = args.drone.clone();
     match &trusted {
-        Some(k) => println!("{drone}: trusts the ground station key {}", k.fingerprint()),
-        None => {
-            println!("{drone}: no ground station key in the fleet file: accepting unsigned slices")
-        }
+        Some(k) => println!(
+            "{drone}: trusts the ground station key {} (slices, start and abort commands)",
+            k.fingerprint()
+        ),
+        None => println!(
+            "{drone}: no ground station key in the fleet file: accepting unsigned slices and commands"
+        ),
     }
     let config = AgentConfig {
         drone: drone.clone(),

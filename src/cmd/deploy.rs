@@ -5,7 +5,12 @@
 //! A drone whose agent already holds the very same slice is not sent it
 //! again: after an edit only the drones whose part changed get a new one.
 //! Then it sends the signed start and flies the ground station's part,
-//! as `eamos run --gcs` does.
+//! as `eamos run --gcs` does (stopped with Ctrl-C, it sends every drone
+//! an abort signed with the same key).
+//!
+//! Every deploy is a session of its own (a fresh random id in each signed
+//! offer and in the start): an agent never starts one session twice, so a
+//! recorded deploy played back is refused (see `eamos_exec::deploy`).
 //!
 //! Prints one line per drone: `sent`, `unchanged` or `refused: <reason>`.
 //! Exit status: 0 the mission completed (or, with `--no-start`, every drone
@@ -19,12 +24,10 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
-use eamos_exec::fleet::Fleet;
 
 use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner::RunOptions;
 use eamos_exec::Outcome;
-use eamos_seal::GroundKey;
 
 /// Send each drone's agent its signed slice, then start the mission.
 #[derive(clap::Args)]
@@ -61,30 +64,6 @@ pub struct Args {
     pub startup_timeout: f64,
 }
 
-/// The secret key: `--key`, or the fleet's public key's sibling. A fleet
-/// that names a public key needs the matching secret key, or every agent
-/// would refuse what this deploy sends.
-fn signing_key(args: &Args, fleet: &Fleet) -> Result<Option<GroundKey>, String> {
-    let fleet_path = args.fleet.as_deref();
-    let path = match (&args.key, &fleet.keys.gcs) {
-        (Some(k), _) => k.clone(),
-        (None, Some(public)) => deploy::resolve(fleet_path, public).with_extension("key"),
-        (None, None) => return Ok(None),
-    };
-    let key = GroundKey::load(&path).map_err(|e| e.to_string())?;
-    if let Some(trusted) = deploy::trusted_key(fleet, fleet_path)? {
-        if trusted != key.public() {
-            return Err(format!(
-                "{} is the secret key of {}, but the fleet file trusts {}: the agents would refuse every slice",
-                path.display(),
-                key.public().fingerprint(),
-                trusted.fingerprint()
-            ));
-        }
-    }
-    Ok(Some(key))
-}
-
 pub fn run(args: Args) -> ExitCode {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         return bad_input(&format!("--speed must be above zero, not {}", args.speed));
@@ -114,7 +93,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
-    let key = match signing_key(&args, &fleet) {
+    let key = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),
     };
@@ -129,7 +108,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
-    let run = RunOptions {
+    let mut run = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
         seed: args.seed,
@@ -181,6 +160,9 @@ pub fn run(args: Args) -> ExitCode {
             return ExitCode::SUCCESS;
         }
         let answers = rollout.start(&slices, &run).await;
+        // Stopped (Ctrl-C), the ground station tells every drone to abort
+        // with a command signed like `eamos abort`'s.
+        run.abort_sealer = rollout.abort_sealer();
         let mut refused = 0;
         for (d, a) in &answers {
             if let Answer::Refused { reason } = a {
