@@ -516,22 +516,18 @@ fn send_abort(
         .unacknowledged
 }
 
-#[test]
-fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_obeys_a_signed_one_with_one_failsafe(
-) {
-    let rig = Rig::new(true, "");
-    let mission = example("dropout.go");
-    let (slices, fleet) = rig.slices(&mission);
-    let _agents = Agents(
-        DROPOUT
-            .iter()
-            .map(|d| (d.to_string(), rig.agent(d, None)))
-            .collect(),
-    );
+/// Starts the agents of `examples/dropout.go` and `eamos deploy` in the
+/// background (its output in `deploy.out`), and waits until Lead flies its
+/// long leg. The deploy process is the last of the processes returned.
+fn deploy_dropout_and_wait_for_the_long_leg(rig: &Rig) -> Agents {
+    let mut procs: Vec<(String, Child)> = DROPOUT
+        .iter()
+        .map(|d| (d.to_string(), rig.agent(d, None)))
+        .collect();
     let deploy = Command::cargo_bin("eamos")
         .unwrap()
         .arg("deploy")
-        .arg(&mission)
+        .arg(example("dropout.go"))
         .arg("--fleet")
         .arg(&rig.fleet)
         .arg("--out")
@@ -545,14 +541,40 @@ fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_ob
         ))
         .spawn()
         .unwrap();
-    // Killed with the agents if a check fails.
-    let mut deploy = Agents(vec![("deploy".to_string(), deploy)]);
-    wait_for(&DROPOUT, &rig, "started mission", Duration::from_secs(120));
+    procs.push(("deploy".to_string(), deploy));
+    let procs = Agents(procs);
+    wait_for(&DROPOUT, rig, "started mission", Duration::from_secs(120));
     wait_until("Lead flies its 100 m leg", Duration::from_secs(120), || {
         rig.events("Dropout", "Lead", "action_started")
             .iter()
             .any(|e| e["action"] == "FlyByX")
     });
+    procs
+}
+
+/// Waits for the `eamos deploy` process of `procs` to end.
+fn deploy_status(procs: &mut Agents) -> std::process::ExitStatus {
+    let start = Instant::now();
+    let (_, deploy) = procs.0.last_mut().unwrap();
+    loop {
+        if let Some(s) = deploy.try_wait().unwrap() {
+            return s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "eamos deploy did not end"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+#[test]
+fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_obeys_a_signed_one_with_one_failsafe(
+) {
+    let rig = Rig::new(true, "");
+    let mission = example("dropout.go");
+    let (slices, fleet) = rig.slices(&mission);
+    let mut procs = deploy_dropout_and_wait_for_the_long_leg(&rig);
 
     let issued_by = "a test that is not the ground station";
     let unsigned = AbortCommand::new(&slices.mission_id, issued_by);
@@ -616,18 +638,32 @@ fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_ob
         assert_eq!(failsafe[0]["failsafe"], "land", "{d}");
         assert!(!rig.agent_output(d).contains("ended: completed"), "{d}");
     }
-    let start = Instant::now();
-    let status = loop {
-        if let Some(s) = deploy.0[0].1.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "eamos deploy did not end after the abort"
-        );
-        std::thread::sleep(Duration::from_millis(100));
-    };
+    let status = deploy_status(&mut procs);
     assert_eq!(status.code(), Some(1), "an aborted mission is no success");
+}
+
+#[test]
+fn ctrl_c_on_eamos_deploy_aborts_every_deployed_drone_with_a_signed_command_and_one_failsafe() {
+    let rig = Rig::new(true, "");
+    let mut procs = deploy_dropout_and_wait_for_the_long_leg(&rig);
+    let pid = procs.0.last().unwrap().1.id();
+    let kill = Command::new("kill")
+        .args(["-INT", &pid.to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    assert_eq!(deploy_status(&mut procs).code(), Some(1));
+    wait_for(&DROPOUT, &rig, "ended", Duration::from_secs(120));
+    for d in DROPOUT {
+        let received = rig.events("Dropout", d, "abort_received");
+        assert_eq!(received.len(), 1, "{d}: {received:?}");
+        // Obeyed as the ground station's command (checked against its
+        // key), not as a peer's abort.
+        let reason = received[0]["reason"].as_str().unwrap_or_default();
+        assert!(reason.contains("aborted by GCS (stopped)"), "{d}: {reason}");
+        assert!(rig.events("Dropout", d, "abort_refused").is_empty(), "{d}");
+        assert_eq!(rig.events("Dropout", d, "failsafe").len(), 1, "{d}");
+    }
 }
 
 #[test]

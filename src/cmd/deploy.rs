@@ -176,6 +176,15 @@ pub fn run(args: Args) -> ExitCode {
             return ExitCode::from(1);
         }
         println!("started {}", slices.mission_id);
+        // From here on Ctrl-C stops the ground station's part, which tells
+        // every drone to abort; before, nothing flies and it just exits.
+        let stop = run.stop.clone();
+        tokio::spawn(async move {
+            if tokio::signal::ctrl_c().await.is_ok() {
+                eprintln!("stopping: every drone goes to its failsafe");
+                stop.cancel();
+            }
+        });
         match deploy::fly_ground_station(&slices, &fleet, &profiles, &run).await {
             Err(e) => bad_input(&e.to_string()),
             Ok(report) => {
