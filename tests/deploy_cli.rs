@@ -643,6 +643,26 @@ fn a_deployed_agent_refuses_unsigned_foreign_and_replayed_aborts_flies_on_and_ob
 }
 
 #[test]
+fn eamos_abort_without_the_secret_key_of_a_fleet_that_names_one_is_bad_input() {
+    let rig = Rig::new(true, "");
+    std::fs::remove_file(rig.path("gcs.key")).unwrap();
+    let out = Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("abort")
+        .arg(example("dropout.go"))
+        .arg("--fleet")
+        .arg(&rig.fleet)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cannot sign the abort") && err.contains("gcs.key"),
+        "{err}"
+    );
+}
+
+#[test]
 fn ctrl_c_on_eamos_deploy_aborts_every_deployed_drone_with_a_signed_command_and_one_failsafe() {
     let rig = Rig::new(true, "");
     let mut procs = deploy_dropout_and_wait_for_the_long_leg(&rig);

@@ -1344,6 +1344,23 @@ mod tests {
     }
 
     #[test]
+    fn a_session_record_that_cannot_be_read_or_written_is_an_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let e = Sessions::load(dir.path()).unwrap_err();
+        assert!(
+            e.starts_with("cannot read") && e.contains(&dir.path().display().to_string()),
+            "{e}"
+        );
+        let mut gone = Sessions::load(&dir.path().join("no-such-dir").join("D2.sessions")).unwrap();
+        let e = gone.record(SESSION, "M-1").unwrap_err();
+        assert!(e.starts_with("cannot record the session"), "{e}");
+        assert!(
+            !gone.contains(SESSION),
+            "a start not recorded is not obeyed"
+        );
+    }
+
+    #[test]
     fn a_slice_offer_of_a_session_already_started_is_refused_as_a_replay() {
         let key = GroundKey::generate().unwrap();
         let s = slices(MISSION, &fleet(FLEET));
