@@ -110,6 +110,19 @@ fn check_json_gives_verdicts_findings_and_steps_for_tools() {
 }
 
 #[test]
+fn check_that_stops_at_its_memory_bound_is_not_a_proof_and_exits_3() {
+    // With no memory at all the exploration stops after its first chunk of
+    // markings: nothing is found, but nothing is proved either.
+    eamos()
+        .args(["check", "--max-memory", "0"])
+        .arg(paper("experiment_c.go"))
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains("unknown"))
+        .stdout(predicate::str::contains("nothing found, but not proved"));
+}
+
+#[test]
 fn check_of_a_mission_with_front_end_errors_prints_them_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     let m = write(

@@ -3,7 +3,9 @@
 //! A `.go` file is compiled (front end, then net compiler) and its net
 //! checked against the built-in profiles; a `.pnml` file is read as a plain
 //! P/T net, so the checker can be compared with other Petri net tools.
-//! Exit status: 0 nothing found, 1 findings, 2 bad input.
+//! Exit status: 0 nothing found and every property decided, 1 findings,
+//! 2 bad input, 3 nothing found but some property undecided (the
+//! exploration stopped at its memory bound).
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -94,6 +96,8 @@ pub fn run(args: Args) -> ExitCode {
     print_report(&args, &report, &source);
     if report.found_something() {
         ExitCode::from(1)
+    } else if report.undecided().next().is_some() {
+        ExitCode::from(3)
     } else {
         ExitCode::SUCCESS
     }

@@ -4,15 +4,16 @@
 //! | property | decided by | reduction |
 //! | --- | --- | --- |
 //! | deadlock | dead markings of the exploration | stubborn sets (preserve every deadlock at its shortest depth) |
-//! | termination | backward search from markings with `final` marked over the explored graph | stubborn sets with the cycle proviso |
-//! | safety | structural concurrency (a proof when it finds no candidate); else monitors of the candidates | stubborn sets with the cycle proviso |
-//! | dead actions | `ActionStart` transitions never fired | stubborn sets with the cycle proviso |
-//! | conflicts | monitors of structurally concurrent running places | stubborn sets with the cycle proviso |
+//! | termination | backward search from markings with `final` marked over the explored graph | stubborn sets with the terminal-component proviso |
+//! | safety | structural concurrency (a proof when it finds no candidate); else monitors of the candidates | stubborn sets with the terminal-component proviso |
+//! | dead actions | `ActionStart` transitions never fired | stubborn sets with the terminal-component proviso |
+//! | conflicts | monitors of structurally concurrent running places | stubborn sets with the terminal-component proviso |
 //! | conditions | interval reasoning over property ranges | none needed |
 //!
-//! The one exploration serves every property: the cycle proviso costs little
-//! on mission nets and makes the reduced graph preserve fireability and the
-//! reachability of the end (see [`crate::explore`]). A net that turns out not
+//! The one exploration serves every property: the terminal-component
+//! proviso costs little on mission nets (a full expansion here and there
+//! once the reduced graph is built) and makes the reduced graph preserve
+//! fireability and the reachability of the end (see [`crate::explore`]). A net that turns out not
 //! to be 1-safe (PNML input, or a compiler bug) is explored again in full
 //! with token counters, which also decides boundedness.
 
@@ -147,7 +148,7 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
                 .any(|(m, h)| matches!(m, MonitorKind::Unsafe { .. }) && h.is_some());
         if !unsafe_hit {
             let method = if reduction {
-                "breadth-first exploration, stubborn sets with the cycle proviso"
+                "breadth-first exploration, stubborn sets with the terminal-component proviso"
             } else {
                 "breadth-first exploration, full"
             };

@@ -38,12 +38,30 @@
 //!   graph. So breadth-first search finds a deadlock at the same depth as full
 //!   exploration would.
 //! * **Fireability of every transition** (used for dead actions and for the
-//!   monitors of [`crate::ptnet`]). This needs the *cycle proviso*: a marking
-//!   with a reduced successor that is already in the store is expanded in
-//!   full. Then every cycle of the reduced graph holds a fully expanded
-//!   marking (the marking of the cycle expanded last found its successor on
-//!   the cycle already stored), so a transition that stays enabled while keys
-//!   fire around it cannot be ignored forever.
+//!   monitors of [`crate::ptnet`]). This needs a proviso against *ignoring*:
+//!   a transition `t` enabled at `M` but left out of every stubborn set along
+//!   a cycle of the reduced graph would never fire. We use Valmari's
+//!   terminal-component condition: every terminal strong component of the
+//!   reduced graph holds a fully expanded marking. It gives what the
+//!   arguments here need: from any `M`, for any `t` enabled at `M`, some
+//!   reduced path leads to a marking whose stubborn set holds `t`. (Follow
+//!   any reduced path from `M` into a terminal component; while `t` stays out
+//!   of the stubborn sets nothing disables it, because a transition of `S`
+//!   that could disable `t` pulls `t` into `S`; inside the component a path
+//!   reaches the fully expanded marking, where `t` is in the set.) So
+//!   firing sequences of the full net can be replayed in the reduced graph
+//!   one transition at a time, as with stubborn sets for deadlocks.
+//!
+//!   The condition is checked after the breadth-first pass, on the graph it
+//!   built (Tarjan's algorithm): one marking of each terminal component
+//!   without a full expansion is expanded in full, the exploration goes on
+//!   from the new markings, and this repeats until no such component is
+//!   left. The usual proviso of breadth-first search ("expand in full when a
+//!   reduced successor is already stored") is far stronger than needed: every
+//!   diamond and every drone coming round its loop triggers it, and on
+//!   missions whose drones loop and branch independently it undoes the
+//!   reduction (2 million markings and counting for a 20-drone stress
+//!   mission that the terminal-component condition settles in 8,000).
 //! * **"The final marking stays reachable"** (termination). For a reduced
 //!   marking, a path to a marking with `final` marked can be replayed in the
 //!   reduced graph by the same argument, provided nothing consumes from
@@ -240,7 +258,8 @@ impl Store {
 pub(crate) struct Config<'a> {
     pub reduction: bool,
     pub max_bytes: usize,
-    /// Keep the reduced graph's edges (for the termination analysis).
+    /// Keep the graph's edges (for the termination analysis). Reduced
+    /// exploration keeps them anyway: its proviso needs them.
     pub keep_edges: bool,
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
 }
@@ -275,7 +294,12 @@ pub(crate) struct Exploration {
     /// The transition of each kept edge.
     pub edge_trans: Vec<u32>,
     pub expanded: usize,
+    /// Whether each state was expanded in full (the terminal-component
+    /// proviso looks for components without one).
+    pub fully: Vec<bool>,
     pub full_expansions: usize,
+    /// How many times the proviso sent the exploration back.
+    pub proviso_rounds: usize,
     pub edge_count: u64,
     pub max_tokens: u32,
     pub seconds: f64,
@@ -370,13 +394,7 @@ fn fire<E: Encoding>(net: &PtNet, m: &[u64], t: usize, out: &mut [u64]) -> Resul
     Ok(())
 }
 
-fn expand<E: Encoding>(
-    net: &PtNet,
-    store: &Store,
-    reduction: bool,
-    s: &mut Scratch,
-    m: &[u64],
-) -> Expanded {
+fn expand<E: Encoding>(net: &PtNet, reduction: bool, s: &mut Scratch, m: &[u64]) -> Expanded {
     let gen = s.next_gen();
     s.enabled.clear();
     {
@@ -434,23 +452,6 @@ fn expand<E: Encoding>(
     };
     out.full = chosen.len() == real_enabled;
     successors::<E>(net, m, &chosen, s, &mut out);
-    if !out.full {
-        // Cycle proviso: a reduced successor already stored may close a
-        // cycle; expand in full.
-        let closes = out.hashes.iter().enumerate().any(|(i, &h)| {
-            store
-                .find(&out.succ[i * m.len()..(i + 1) * m.len()], h)
-                .is_some()
-        });
-        if closes {
-            out.trans.clear();
-            out.succ.clear();
-            out.hashes.clear();
-            out.full = true;
-            let all = s.enabled[..real_enabled].to_vec();
-            successors::<E>(net, m, &all, s, &mut out);
-        }
-    }
     s.best = chosen;
     out
 }
@@ -583,6 +584,7 @@ pub(crate) fn initial_marking<E: Encoding>(net: &PtNet) -> Vec<u64> {
 pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     let start = Instant::now();
     let words = E::words(net.n_places());
+    let keep_edges = cfg.keep_edges || cfg.reduction;
     let mut ex = Exploration {
         store: Store::new(words),
         stop: None,
@@ -593,7 +595,9 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
         edges: Vec::new(),
         edge_trans: Vec::new(),
         expanded: 0,
+        fully: Vec::new(),
         full_expansions: 0,
+        proviso_rounds: 0,
         edge_count: 0,
         max_tokens: 0,
         seconds: 0.0,
@@ -601,113 +605,286 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     let m0 = initial_marking::<E>(net);
     ex.store.insert(&m0, hash_words(&m0), u32::MAX, u32::MAX);
     ex.max_tokens = net.initial.iter().copied().max().unwrap_or(0);
-    if cfg.keep_edges {
+    if keep_edges {
         ex.edge_offsets.push(0);
     }
+    // Edges out of markings expanded a second time, in full, by the proviso:
+    // (from, to, transition). Merged into the CSR arrays at the end.
+    let mut extra: Vec<(u32, u32, u32)> = Vec::new();
     let counting = E::MAX > 1;
     let n_all = net.n_all();
     let mut cursor = 0usize;
     let mut chunk = 64usize;
-    'outer: while cursor < ex.store.len() {
-        let hi = ex.store.len().min(cursor + chunk);
-        let store = &ex.store;
-        let reduction = cfg.reduction;
-        let results: Vec<Expanded> = if hi - cursor < 32 {
-            let mut s = Scratch::new(n_all, words);
-            (cursor..hi)
-                .map(|id| expand::<E>(net, store, reduction, &mut s, store.marking(id as u32)))
-                .collect()
-        } else {
-            (cursor..hi)
-                .into_par_iter()
-                .map_init(
-                    || Scratch::new(n_all, words),
-                    |s, id| expand::<E>(net, store, reduction, s, store.marking(id as u32)),
-                )
-                .collect()
-        };
-        for (i, r) in results.into_iter().enumerate() {
-            let id = (cursor + i) as u32;
-            ex.expanded += 1;
-            for &mi in &r.monitors {
-                let hit = &mut ex.monitor_hits[mi as usize];
-                if hit.is_none() {
-                    *hit = Some(id);
-                }
-            }
-            if let Some((t, place)) = r.overflow {
-                ex.stop = Some(if counting {
-                    Stop::Overflow {
-                        state: id,
-                        t,
-                        place,
-                    }
-                } else {
-                    Stop::Unsafe {
-                        state: id,
-                        t,
-                        place,
-                    }
-                });
-                break 'outer;
-            }
-            if r.dead {
-                ex.dead.push(id);
-            }
-            if r.full && !r.dead {
-                ex.full_expansions += 1;
-            }
-            for (k, &t) in r.trans.iter().enumerate() {
-                ex.fired[t as usize] = true;
-                let succ = &r.succ[k * words..(k + 1) * words];
-                if ex.store.len() >= u32::MAX as usize - 1 {
-                    ex.stop = Some(Stop::TooManyStates);
+    'outer: loop {
+        while cursor < ex.store.len() {
+            let hi = ex.store.len().min(cursor + chunk);
+            let store = &ex.store;
+            let reduction = cfg.reduction;
+            let results: Vec<Expanded> = if hi - cursor < 32 {
+                let mut s = Scratch::new(n_all, words);
+                (cursor..hi)
+                    .map(|id| expand::<E>(net, reduction, &mut s, store.marking(id as u32)))
+                    .collect()
+            } else {
+                (cursor..hi)
+                    .into_par_iter()
+                    .map_init(
+                        || Scratch::new(n_all, words),
+                        |s, id| expand::<E>(net, reduction, s, store.marking(id as u32)),
+                    )
+                    .collect()
+            };
+            for (i, r) in results.into_iter().enumerate() {
+                let id = (cursor + i) as u32;
+                ex.expanded += 1;
+                ex.fully.push(r.full || r.dead);
+                if let Err(stop) = absorb::<E>(&mut ex, net, id, r, None) {
+                    ex.stop = Some(stop);
                     break 'outer;
                 }
-                let (sid, new) = ex.store.insert(succ, r.hashes[k], id, t);
-                ex.edge_count += 1;
-                if cfg.keep_edges {
-                    ex.edges.push(sid);
-                    ex.edge_trans.push(t);
-                }
-                if new && counting {
-                    for p in 0..net.n_places() as u32 {
-                        ex.max_tokens = ex.max_tokens.max(E::get(succ, p));
-                    }
-                    let mut a = id;
-                    loop {
-                        if strictly_covers::<E>(succ, ex.store.marking(a), net.n_places()) {
-                            ex.stop = Some(Stop::Unbounded {
-                                state: sid,
-                                ancestor: a,
-                            });
-                            break 'outer;
-                        }
-                        let p = ex.store.parent[a as usize];
-                        if p == u32::MAX {
-                            break;
-                        }
-                        a = p;
-                    }
+                if keep_edges {
+                    ex.edge_offsets.push(ex.edges.len() as u64);
                 }
             }
-            if cfg.keep_edges {
-                ex.edge_offsets.push(ex.edges.len() as u64);
+            cursor = hi;
+            chunk = (chunk * 2).min(1 << 14);
+            if let Some(f) = cfg.progress {
+                f(ex.store.len(), cursor);
+            }
+            if ex.memory_bytes() + extra.capacity() * 12 > cfg.max_bytes {
+                ex.stop = Some(Stop::Memory);
+                break 'outer;
             }
         }
-        cursor = hi;
-        chunk = (chunk * 2).min(1 << 14);
-        if let Some(f) = cfg.progress {
-            f(ex.store.len(), cursor);
-        }
-        if ex.memory_bytes() > cfg.max_bytes {
-            ex.stop = Some(Stop::Memory);
+        if !cfg.reduction {
             break;
         }
+        let ignoring = unexpanded_terminal_components(&ex, &extra);
+        if ignoring.is_empty() {
+            break;
+        }
+        ex.proviso_rounds += 1;
+        let mut s = Scratch::new(n_all, words);
+        for id in ignoring {
+            let r = expand::<E>(net, false, &mut s, ex.store.marking(id));
+            ex.fully[id as usize] = true;
+            if let Err(stop) = absorb::<E>(&mut ex, net, id, r, Some(&mut extra)) {
+                ex.stop = Some(stop);
+                break 'outer;
+            }
+        }
+    }
+    if keep_edges && !extra.is_empty() {
+        merge_edges(&mut ex, &mut extra);
     }
     if !counting {
         ex.max_tokens = 1;
     }
     ex.seconds = start.elapsed().as_secs_f64();
     ex
+}
+
+/// Records what expanding `id` produced: findings, new markings, edges (into
+/// the CSR arrays, or into `extra` for a second expansion).
+fn absorb<E: Encoding>(
+    ex: &mut Exploration,
+    net: &PtNet,
+    id: u32,
+    r: Expanded,
+    mut extra: Option<&mut Vec<(u32, u32, u32)>>,
+) -> Result<(), Stop> {
+    let counting = E::MAX > 1;
+    let words = ex.store.words;
+    for &mi in &r.monitors {
+        let hit = &mut ex.monitor_hits[mi as usize];
+        if hit.is_none() {
+            *hit = Some(id);
+        }
+    }
+    if let Some((t, place)) = r.overflow {
+        return Err(if counting {
+            Stop::Overflow {
+                state: id,
+                t,
+                place,
+            }
+        } else {
+            Stop::Unsafe {
+                state: id,
+                t,
+                place,
+            }
+        });
+    }
+    if r.dead {
+        ex.dead.push(id);
+    }
+    if r.full && !r.dead {
+        ex.full_expansions += 1;
+    }
+    let keep_edges = !ex.edge_offsets.is_empty();
+    for (k, &t) in r.trans.iter().enumerate() {
+        ex.fired[t as usize] = true;
+        let succ = &r.succ[k * words..(k + 1) * words];
+        if ex.store.len() >= u32::MAX as usize - 1 {
+            return Err(Stop::TooManyStates);
+        }
+        let (sid, new) = ex.store.insert(succ, r.hashes[k], id, t);
+        ex.edge_count += 1;
+        match extra.as_deref_mut() {
+            Some(extra) => extra.push((id, sid, t)),
+            None if keep_edges => {
+                ex.edges.push(sid);
+                ex.edge_trans.push(t);
+            }
+            None => {}
+        }
+        if new && counting {
+            for p in 0..net.n_places() as u32 {
+                ex.max_tokens = ex.max_tokens.max(E::get(succ, p));
+            }
+            let mut a = id;
+            loop {
+                if strictly_covers::<E>(succ, ex.store.marking(a), net.n_places()) {
+                    return Err(Stop::Unbounded {
+                        state: sid,
+                        ancestor: a,
+                    });
+                }
+                let p = ex.store.parent[a as usize];
+                if p == u32::MAX {
+                    break;
+                }
+                a = p;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One marking of each terminal strong component of the explored graph that
+/// holds no fully expanded marking, found with an iterative Tarjan.
+fn unexpanded_terminal_components(ex: &Exploration, extra: &[(u32, u32, u32)]) -> Vec<u32> {
+    let n = ex.store.len();
+    // Successors: the CSR row, then the extra edges (sorted by source).
+    let mut extra_sorted: Vec<(u32, u32)> = extra.iter().map(|&(a, b, _)| (a, b)).collect();
+    extra_sorted.sort_unstable();
+    let mut extra_off = vec![0u32; n + 1];
+    for &(a, _) in &extra_sorted {
+        extra_off[a as usize + 1] += 1;
+    }
+    for i in 0..n {
+        extra_off[i + 1] += extra_off[i];
+    }
+    let succ = |v: usize, k: usize| -> Option<u32> {
+        let base = ex.edge_offsets[v] as usize;
+        let row = ex.edge_offsets[v + 1] as usize - base;
+        if k < row {
+            return Some(ex.edges[base + k]);
+        }
+        let e = extra_off[v] as usize + (k - row);
+        (e < extra_off[v + 1] as usize).then(|| extra_sorted[e].1)
+    };
+    const NONE: u32 = u32::MAX;
+    let mut index = vec![NONE; n];
+    let mut low = vec![0u32; n];
+    let mut on_stack = vec![false; n];
+    let mut stack: Vec<u32> = Vec::new();
+    let mut call: Vec<(u32, usize)> = Vec::new();
+    let mut comp_of = vec![NONE; n];
+    let mut comps: Vec<Vec<u32>> = Vec::new();
+    let mut next = 0u32;
+    for root in 0..n {
+        if index[root] != NONE {
+            continue;
+        }
+        call.push((root as u32, 0));
+        index[root] = next;
+        low[root] = next;
+        next += 1;
+        stack.push(root as u32);
+        on_stack[root] = true;
+        while let Some(&mut (v, ref mut k)) = call.last_mut() {
+            let vi = v as usize;
+            if let Some(w) = succ(vi, *k) {
+                *k += 1;
+                let wi = w as usize;
+                if index[wi] == NONE {
+                    index[wi] = next;
+                    low[wi] = next;
+                    next += 1;
+                    stack.push(w);
+                    on_stack[wi] = true;
+                    call.push((w, 0));
+                } else if on_stack[wi] {
+                    low[vi] = low[vi].min(index[wi]);
+                }
+                continue;
+            }
+            call.pop();
+            if let Some(&(u, _)) = call.last() {
+                low[u as usize] = low[u as usize].min(low[vi]);
+            }
+            if low[vi] == index[vi] {
+                let c = comps.len() as u32;
+                let mut members = Vec::new();
+                loop {
+                    let w = stack.pop().expect("Tarjan stack holds the component");
+                    on_stack[w as usize] = false;
+                    comp_of[w as usize] = c;
+                    members.push(w);
+                    if w == v {
+                        break;
+                    }
+                }
+                comps.push(members);
+            }
+        }
+    }
+    comps
+        .iter()
+        .enumerate()
+        .filter(|(c, members)| {
+            members.iter().all(|&v| {
+                let mut k = 0;
+                while let Some(w) = succ(v as usize, k) {
+                    if comp_of[w as usize] != *c as u32 {
+                        return false;
+                    }
+                    k += 1;
+                }
+                true
+            }) && !members.iter().any(|&v| ex.fully[v as usize])
+        })
+        .map(|(_, members)| *members.iter().min().expect("components are not empty"))
+        .collect()
+}
+
+/// Folds the proviso's extra edges into the CSR arrays, each after the
+/// edges its marking got in the breadth-first pass.
+fn merge_edges(ex: &mut Exploration, extra: &mut Vec<(u32, u32, u32)>) {
+    extra.sort_by_key(|&(a, _, _)| a);
+    // Rows exist for the expanded markings only (all of them, unless the
+    // exploration stopped early); extra edges leave expanded markings.
+    let n = ex.edge_offsets.len() - 1;
+    let mut offsets = Vec::with_capacity(n + 1);
+    let mut edges = Vec::with_capacity(ex.edges.len() + extra.len());
+    let mut trans = Vec::with_capacity(ex.edges.len() + extra.len());
+    let mut e = 0;
+    offsets.push(0u64);
+    for v in 0..n {
+        let (lo, hi) = (ex.edge_offsets[v] as usize, ex.edge_offsets[v + 1] as usize);
+        edges.extend_from_slice(&ex.edges[lo..hi]);
+        trans.extend_from_slice(&ex.edge_trans[lo..hi]);
+        while e < extra.len() && extra[e].0 as usize == v {
+            edges.push(extra[e].1);
+            trans.push(extra[e].2);
+            e += 1;
+        }
+        offsets.push(edges.len() as u64);
+    }
+    ex.edge_offsets = offsets;
+    ex.edges = edges;
+    ex.edge_trans = trans;
+    extra.clear();
 }

@@ -11,7 +11,7 @@
 //! enabled exactly in the markings a property wants to find (two running
 //! places of one drone both marked; a transition able to fire into a marked
 //! place), so looking for such a marking becomes asking whether a transition
-//! can ever be enabled, which stubborn sets with the cycle proviso preserve
+//! can ever be enabled, which stubborn sets with the terminal-component proviso preserve
 //! (see [`crate::explore`]).
 
 use eamos_lang::Span;

@@ -249,6 +249,16 @@ impl Report {
         !self.findings.is_empty()
     }
 
+    /// The properties left undecided (the exploration stopped early). Nothing
+    /// found is then not a proof, and a team about to fly must not read it
+    /// as one: `eamos check` gives them their own exit status.
+    pub fn undecided(&self) -> impl Iterator<Item = Property> + '_ {
+        self.properties
+            .iter()
+            .filter(|r| matches!(r.verdict, Verdict::Unknown(_)))
+            .map(|r| r.property)
+    }
+
     /// The report for people. `color` selects ANSI colours (for terminals).
     pub fn render(&self, source: &SourceFile, color: bool) -> String {
         let mut out = String::new();
@@ -308,7 +318,13 @@ impl Report {
             out,
             "{}",
             if self.findings.is_empty() {
-                "nothing found".to_string()
+                match self.undecided().count() {
+                    0 => "nothing found".to_string(),
+                    n => format!(
+                        "nothing found, but not proved: {n} propert{} undecided",
+                        if n == 1 { "y" } else { "ies" }
+                    ),
+                }
             } else {
                 format!("found {errors} error(s) and {warnings} warning(s)")
             }
