@@ -556,7 +556,7 @@ impl Executor {
                 .collect();
             let wait = self
                 .link
-                .wait_for_peers(&others, self.options.startup_timeout);
+                .wait_for_mesh(&others, self.options.startup_timeout);
             tokio::select! {
                 r = wait => if let Err(e) = r {
                     self.ended = Some(Outcome::Failed { reason: format!("cannot start: {e}") });

@@ -145,6 +145,16 @@ pub fn run(args: Args) -> ExitCode {
         .clone()
         .unwrap_or_else(|| Path::new("eamos-run").join(&slices.mission));
 
+    // Diagnostics (who is up, who sees whom, retransmissions) only when
+    // asked for with RUST_LOG (`RUST_LOG=eamos_exec=debug`): the progress
+    // lines are what a crew reads.
+    let _ = tracing_subscriber::fmt()
+        .with_writer(std::io::stderr)
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("off")),
+        )
+        .try_init();
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -58,6 +58,7 @@ impl Executor {
             .collect();
         let now = self.now();
         let me = self.me().to_string();
+        tracing::debug!("{me}: peers up at {now:.2} s: {up:?}");
         for change in self.alive.watch.update(&me, &up, now) {
             match change {
                 Change::Lost(peer) => {

@@ -227,6 +227,14 @@ impl Link for FaultyLink {
         self.inner.wait_for_peers(peers, timeout).await
     }
 
+    async fn wait_for_mesh(
+        &self,
+        peers: &[PeerId],
+        timeout: Duration,
+    ) -> Result<(), TransportError> {
+        self.inner.wait_for_mesh(peers, timeout).await
+    }
+
     /// The inner link's presence as seen through the partition, kept up to
     /// date as either changes.
     fn presence(&self) -> Option<watch::Receiver<BTreeSet<PeerId>>> {

@@ -64,6 +64,9 @@ pub struct Ack {
 pub enum Frame {
     Token(BridgeMessage),
     Ack(Ack),
+    /// Acknowledgements of one receiver held back a moment and sent
+    /// together (see [`reliable::RetransmitPolicy::ack_delay`]).
+    Acks(Vec<Ack>),
 }
 
 impl Frame {
@@ -115,6 +118,12 @@ pub enum TransportError {
         missing: Vec<PeerId>,
         waited: Duration,
     },
+    #[error("peers do not all reach each other after {waited:?} ({}): every peer must reach every other one; check the zenoh endpoints of the fleet file", describe_unlinked(.pairs))]
+    Unlinked {
+        /// (A, B): A does not see B.
+        pairs: Vec<(PeerId, PeerId)>,
+        waited: Duration,
+    },
     #[error("peer {peer} runs another version of mission {mission} (version {theirs}, this peer {ours}): peers of two versions refuse each other; build every peer from the same mission and fleet file")]
     OtherVersion {
         peer: PeerId,
@@ -122,6 +131,14 @@ pub enum TransportError {
         theirs: String,
         ours: String,
     },
+}
+
+fn describe_unlinked(pairs: &[(PeerId, PeerId)]) -> String {
+    pairs
+        .iter()
+        .map(|(a, b)| format!("{a} does not see {b}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Moves frames between peers, best effort: no retransmission, no
@@ -146,6 +163,20 @@ pub trait Link: Send + Sync + 'static {
         peers: &[PeerId],
         timeout: Duration,
     ) -> Result<(), TransportError>;
+
+    /// Waits until every peer in `peers` is up and every two of them, this
+    /// one included, reach each other. The ground station starts a mission
+    /// only then: a drone that never saw a peer it waits on cannot tell,
+    /// when that peer dies, that it is lost rather than late. A link whose
+    /// peers all meet in one place (the in-process hub) only waits for them
+    /// to be up.
+    async fn wait_for_mesh(
+        &self,
+        peers: &[PeerId],
+        timeout: Duration,
+    ) -> Result<(), TransportError> {
+        self.wait_for_peers(peers, timeout).await
+    }
 
     /// The peers up right now (this one included), updated as they come
     /// and go: zenoh liveliness tokens, or the in-process hub's members.

@@ -8,6 +8,7 @@
 //! | `eamos/<mission>/<peer>/ack` | acknowledgements addressed to `peer` |
 //! | `eamos/<mission>/<drone>/telemetry` | the state of `drone`, for remote conditions |
 //! | `eamos/<mission>/<peer>/alive` | liveliness token: `peer` is up |
+//! | `eamos/<mission>/<peer>/sees/<other>` | liveliness token: `peer` sees `other`'s `alive` token |
 //!
 //! Peers find each other through explicit endpoints (each listens on its own
 //! and connects to the others'); multicast scouting is off unless asked for,
@@ -234,6 +235,9 @@ pub async fn open(
     let presence_tx = presence.clone();
     let seen = alive.clone();
     let prefix = format!("eamos/{mission}/");
+    let sees_sub = watch_who_sees_whom(&session, mission, alive.clone()).await?;
+    let sees_tx = declare_what_i_see(&session, mission, me);
+    let me_owned = me.to_string();
     let alive_sub = session
         .liveliness()
         .declare_subscriber(format!("eamos/{mission}/*/alive"))
@@ -247,6 +251,7 @@ pub async fn open(
                 return;
             };
             let mut peers = seen.peers.lock().expect("alive lock");
+            tracing::debug!("{me_owned}: {peer} is {}", up_or_gone(sample.kind()));
             match sample.kind() {
                 SampleKind::Put => {
                     peers.insert(peer.to_string());
@@ -254,6 +259,9 @@ pub async fn open(
                 SampleKind::Delete => {
                     peers.remove(peer);
                 }
+            }
+            if peer != me_owned {
+                let _ = sees_tx.send((sample.kind(), peer.to_string()));
             }
             presence_tx.send_replace(peers.iter().cloned().collect());
             seen.changed.notify_waiters();
@@ -275,6 +283,7 @@ pub async fn open(
         alive,
         _subscribers: subscribers,
         _alive_subscriber: alive_sub,
+        _sees_subscriber: sees_sub,
         _token: token,
         _version: version,
         presence,
@@ -286,9 +295,91 @@ pub async fn open(
     })
 }
 
+fn up_or_gone(kind: SampleKind) -> &'static str {
+    match kind {
+        SampleKind::Put => "up",
+        SampleKind::Delete => "gone",
+    }
+}
+
+/// Declares `eamos/<mission>/<me>/sees/<peer>` while `me` sees `peer`'s
+/// alive token, from the (peer appeared or went) events sent on the
+/// returned channel. zenoh peers do not pass on each other's liveliness
+/// tokens, so "A sees B" means A and B are linked: the ground station
+/// starts a mission only once every two peers are (see
+/// [`Link::wait_for_mesh`]), otherwise a drone could wait on a peer it
+/// never saw, which it cannot tell apart from a late one when it is lost.
+/// The declaring task ends when the alive subscriber, which holds the
+/// sender, is dropped with the link.
+fn declare_what_i_see(
+    session: &Session,
+    mission: &str,
+    me: &str,
+) -> mpsc::UnboundedSender<(SampleKind, PeerId)> {
+    let (tx, mut rx) = mpsc::unbounded_channel::<(SampleKind, PeerId)>();
+    let session = session.clone();
+    let (mission, me) = (mission.to_string(), me.to_string());
+    tokio::spawn(async move {
+        let mut tokens: HashMap<PeerId, LivelinessToken> = HashMap::new();
+        while let Some((kind, peer)) = rx.recv().await {
+            match kind {
+                SampleKind::Put if !tokens.contains_key(&peer) => {
+                    let k = key(&mission, &me, &format!("sees/{peer}"));
+                    match session.liveliness().declare_token(k.clone()).await {
+                        Ok(t) => {
+                            tokens.insert(peer, t);
+                        }
+                        Err(e) => tracing::warn!("cannot declare {k}: {e}"),
+                    }
+                }
+                SampleKind::Put => {}
+                SampleKind::Delete => {
+                    tokens.remove(&peer);
+                }
+            }
+        }
+    });
+    tx
+}
+
+/// Follows the `sees` tokens of every peer of `mission` into `alive.sees`.
+async fn watch_who_sees_whom(
+    session: &Session,
+    mission: &str,
+    alive: Arc<Alive>,
+) -> Result<Subscriber<()>, TransportError> {
+    let prefix = format!("eamos/{mission}/");
+    session
+        .liveliness()
+        .declare_subscriber(format!("eamos/{mission}/*/sees/*"))
+        .history(true)
+        .callback(move |sample| {
+            let Some((peer, other)) = sample
+                .key_expr()
+                .as_str()
+                .strip_prefix(&prefix)
+                .and_then(|r| r.split_once("/sees/"))
+            else {
+                return;
+            };
+            let pair = (peer.to_string(), other.to_string());
+            let mut sees = alive.sees.lock().expect("alive lock");
+            match sample.kind() {
+                SampleKind::Put => sees.insert(pair),
+                SampleKind::Delete => sees.remove(&pair),
+            };
+            drop(sees);
+            alive.changed.notify_waiters();
+        })
+        .await
+        .map_err(|e| TransportError::Open(e.to_string()))
+}
+
 #[derive(Default)]
 struct Alive {
     peers: Mutex<HashSet<PeerId>>,
+    /// (A, B): peer A sees peer B's alive token (they are linked).
+    sees: Mutex<HashSet<(PeerId, PeerId)>>,
     changed: Notify,
     /// Peers seen running another version of this mission, with theirs.
     foreign: Mutex<HashMap<PeerId, String>>,
@@ -305,6 +396,7 @@ struct ZenohLink {
     presence: Arc<watch::Sender<BTreeSet<PeerId>>>,
     _subscribers: Vec<Subscriber<()>>,
     _alive_subscriber: Subscriber<()>,
+    _sees_subscriber: Subscriber<()>,
     _token: LivelinessToken,
     _version: Option<(LivelinessToken, Subscriber<()>)>,
 }
@@ -336,7 +428,7 @@ impl Link for ZenohLink {
     async fn send(&self, to: &str, frame: &Frame) -> Result<(), TransportError> {
         let what = match frame {
             Frame::Token(_) => "bridge",
-            Frame::Ack(_) => "ack",
+            Frame::Ack(_) | Frame::Acks(_) => "ack",
         };
         self.put(key(&self.mission, to, what), frame.encode()).await
     }
@@ -380,6 +472,34 @@ impl Link for ZenohLink {
             if tokio::time::Instant::now() >= deadline {
                 return Err(TransportError::PeersMissing {
                     missing,
+                    waited: timeout,
+                });
+            }
+        }
+    }
+
+    async fn wait_for_mesh(
+        &self,
+        peers: &[PeerId],
+        timeout: Duration,
+    ) -> Result<(), TransportError> {
+        let deadline = tokio::time::Instant::now() + timeout;
+        self.wait_for_peers(peers, timeout).await?;
+        loop {
+            let changed = self.alive.changed.notified();
+            let unlinked = self.alive.unlinked(&self.me, peers);
+            if unlinked.is_empty() {
+                return Ok(());
+            }
+            tracing::debug!("{}: waiting until {unlinked:?} see each other", self.me);
+            let tick = tokio::time::sleep(Duration::from_millis(200));
+            tokio::select! {
+                _ = changed => {}
+                _ = tick => {}
+            }
+            if tokio::time::Instant::now() >= deadline {
+                return Err(TransportError::Unlinked {
+                    pairs: self.alive.unlinked(&self.me, peers),
                     waited: timeout,
                 });
             }
@@ -450,6 +570,29 @@ async fn announce_version(
 }
 
 impl Alive {
+    /// The pairs (A, B) of `peers` and `me` where A does not see B (yet).
+    fn unlinked(&self, me: &str, peers: &[PeerId]) -> Vec<(PeerId, PeerId)> {
+        let up = self.peers.lock().expect("alive lock");
+        let sees = self.sees.lock().expect("alive lock");
+        let all: Vec<&str> = std::iter::once(me)
+            .chain(peers.iter().map(String::as_str))
+            .collect();
+        let mut out = Vec::new();
+        for &a in &all {
+            for &b in all.iter().filter(|b| **b != a) {
+                let seen = if a == me {
+                    up.contains(b)
+                } else {
+                    sees.contains(&(a.to_string(), b.to_string()))
+                };
+                if !seen {
+                    out.push((a.to_string(), b.to_string()));
+                }
+            }
+        }
+        out
+    }
+
     /// The first of `missing` that runs another version of `mission`.
     fn other_version(&self, mission: &str, missing: &[PeerId]) -> Option<TransportError> {
         let foreign = self.foreign.lock().expect("alive lock");
@@ -570,6 +713,67 @@ mod tests {
             ..ZenohOptions::default()
         });
         assert!(matches!(e, Err(TransportError::Config(_))), "{:?}", e.err());
+    }
+
+    /// Opens `me` listening on `listen` and connecting to `connect`.
+    async fn peer(mission: &str, me: &str, listen: u16, connect: &[u16]) -> Endpoint {
+        open(
+            mission,
+            me,
+            &[],
+            &ZenohOptions {
+                listen: vec![tcp(listen)],
+                connect: connect.iter().map(|p| tcp(*p)).collect(),
+                ..ZenohOptions::default()
+            },
+        )
+        .await
+        .unwrap()
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn the_ground_station_waits_until_every_two_peers_reach_each_other_not_only_itself() {
+        let (pg, p1, p2) = (free_port(), free_port(), free_port());
+        let mission = "MeshTest-1";
+        // D1 and D2 each know only the ground station: zenoh peers do not
+        // pass on each other's tokens, so the two never meet.
+        let gcs = peer(mission, "GCS", pg, &[p1, p2]).await;
+        let _d1 = peer(mission, "D1", p1, &[pg]).await;
+        let _d2 = peer(mission, "D2", p2, &[pg]).await;
+        let drones = ["D1".to_string(), "D2".to_string()];
+        gcs.link
+            .wait_for_peers(&drones, Duration::from_secs(20))
+            .await
+            .expect("the ground station sees both drones");
+        let e = gcs
+            .link
+            .wait_for_mesh(&drones, Duration::from_secs(2))
+            .await
+            .unwrap_err();
+        match &e {
+            TransportError::Unlinked { pairs, .. } => assert_eq!(
+                pairs,
+                &[("D1".into(), "D2".into()), ("D2".into(), "D1".into())]
+            ),
+            other => panic!("{other}"),
+        }
+        assert!(e.to_string().contains("D1 does not see D2"), "{e}");
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn peers_that_all_reach_each_other_form_a_mesh_whatever_order_they_start_in() {
+        let (pg, p1, p2) = (free_port(), free_port(), free_port());
+        let mission = "MeshTest-2";
+        // The drones start first and try each other at once; the ground
+        // station comes last.
+        let (c1, c2) = ([pg, p2], [pg, p1]);
+        let (d1, d2) = tokio::join!(peer(mission, "D1", p1, &c1), peer(mission, "D2", p2, &c2));
+        let gcs = peer(mission, "GCS", pg, &[p1, p2]).await;
+        gcs.link
+            .wait_for_mesh(&["D1".into(), "D2".into()], Duration::from_secs(30))
+            .await
+            .expect("every two peers meet");
+        drop((d1, d2));
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
