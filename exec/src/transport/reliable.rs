@@ -9,19 +9,29 @@
 //! be the one that was lost) and hands each (bridge, colour) to its executor
 //! once.
 //!
+//! The latency of a token is what a mission waits on; its ack only has to
+//! come before the sender's first retransmission. So a token leaves from
+//! the sender's own call (no hop through the bridges' task), the receiver
+//! hands it to its executor before anything else, and acknowledgements wait
+//! up to [`RetransmitPolicy::ack_delay`] to leave together, in one frame
+//! per peer, off the path of the next token.
+//!
 //! With a [`Journal`], the bridges survive a crash of their peer: a token is
-//! journaled (and flushed to the disk) before it is acknowledged, every
-//! token sent is journaled with its sequence number before it leaves, and
-//! acknowledgements are journaled as they come. Restarted from the journal
-//! ([`Bridges::start_journaled`]), the bridges still drop copies of tokens
-//! consumed before the crash and send again, with their original sequence
-//! numbers, the tokens that were never acknowledged.
+//! journaled (and flushed to the disk) before it is handed on or
+//! acknowledged, every token sent is journaled with its sequence number
+//! before it leaves, and acknowledgements are journaled as they come.
+//! Restarted from the journal ([`Bridges::start_journaled`]), the bridges
+//! still drop copies of tokens consumed before the crash and send again,
+//! with their original sequence numbers, the tokens that were never
+//! acknowledged.
 
 use std::collections::{HashMap, HashSet};
+use std::future::Future;
 use std::sync::{Arc, Mutex};
+use std::task::{Context, Poll, Waker};
 use std::time::Duration;
 
-use tokio::sync::{mpsc, watch};
+use tokio::sync::{mpsc, oneshot, watch, Notify};
 use tokio::time::Instant;
 
 use eamos_petri::net::Colour;
@@ -29,7 +39,8 @@ use eamos_petri::net::Colour;
 use super::{Ack, BridgeMessage, Frame, Link, PeerId};
 use crate::journal::{Journal, Record, Recovered, Sent};
 
-/// When to send a token again that has not been acknowledged.
+/// When to send a token again that has not been acknowledged, and how long
+/// a receiver may hold an acknowledgement back.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RetransmitPolicy {
     /// The first retransmission comes this long after the first send.
@@ -37,6 +48,10 @@ pub struct RetransmitPolicy {
     /// The wait doubles (times `factor`) after every try, up to this.
     pub max: Duration,
     pub factor: f64,
+    /// A receiver sends the acknowledgements of the tokens it got within
+    /// this long together, at most this late. Well under `initial`, or the
+    /// sender retransmits tokens that did arrive.
+    pub ack_delay: Duration,
 }
 
 impl Default for RetransmitPolicy {
@@ -45,6 +60,7 @@ impl Default for RetransmitPolicy {
             initial: Duration::from_millis(40),
             max: Duration::from_millis(800),
             factor: 2.0,
+            ack_delay: Duration::from_millis(1),
         }
     }
 }
@@ -73,33 +89,44 @@ pub struct BridgeStats {
     pub acks_sent: u64,
 }
 
-enum Command {
-    Send {
-        to: PeerId,
-        bridge: String,
-        colour: Colour,
-        seq: u64,
-    },
+/// The tokens sent and not yet acknowledged, shared by [`Bridges::send`]
+/// (which adds them) and the bridges' task (which retransmits and retires
+/// them).
+struct Outbox {
+    /// By (receiver, bridge, colour).
+    pending: HashMap<(PeerId, String, Colour), Pending>,
+    /// When the task wakes next to retransmit (`None`: it does not): a
+    /// token due sooner must wake it.
+    timer: Option<Instant>,
+}
+
+struct Pending {
+    /// The token as it goes on the wire.
+    frame: Frame,
+    due: Instant,
+    wait: Duration,
 }
 
 /// The sending and receiving side of every bridge of one peer.
 ///
-/// Dropping it stops its task: keep it alive while peers may still
-/// retransmit to this one (their acks may have been lost).
+/// Dropping it stops its task (once it has sent the acknowledgements it
+/// holds): keep it alive while peers may still retransmit to this one
+/// (their acks may have been lost).
 pub struct Bridges {
-    commands: mpsc::UnboundedSender<Command>,
+    mission: String,
+    link: Arc<dyn Link>,
+    policy: RetransmitPolicy,
+    outbox: Arc<Mutex<Outbox>>,
+    /// Wakes the task when a token is due before its timer.
+    wake: Arc<Notify>,
     next_seq: Mutex<u64>,
     journal: Option<Arc<Journal>>,
     /// Tokens sent and not yet acknowledged; counted up by `send` itself so
     /// that a `flush` right after a `send` cannot miss it.
     unacked: Arc<watch::Sender<usize>>,
     stats: Arc<Mutex<BridgeStats>>,
-}
-
-struct Pending {
-    message: BridgeMessage,
-    due: Instant,
-    wait: Duration,
+    /// Dropped with the bridges: stops the task.
+    _stop: oneshot::Sender<()>,
 }
 
 impl Bridges {
@@ -145,7 +172,7 @@ impl Bridges {
         journal: Option<Arc<Journal>>,
         recovered: Option<&Recovered>,
     ) -> (Bridges, mpsc::UnboundedReceiver<Delivered>) {
-        let (commands, command_rx) = mpsc::unbounded_channel();
+        let (stop, stopped) = oneshot::channel();
         let (delivered_tx, delivered_rx) = mpsc::unbounded_channel();
         let me = link.me().to_string();
         let mut pending = HashMap::new();
@@ -154,13 +181,13 @@ impl Bridges {
             pending.insert(
                 (s.to.clone(), s.bridge.clone(), s.colour.clone()),
                 Pending {
-                    message: BridgeMessage {
+                    frame: Frame::Token(BridgeMessage {
                         mission: mission.clone(),
                         from: me.clone(),
                         bridge: s.bridge.clone(),
                         colour: s.colour.clone(),
                         seq: s.seq,
-                    },
+                    }),
                     due: now,
                     wait: policy.initial,
                 },
@@ -168,25 +195,38 @@ impl Bridges {
         }
         let unacked = Arc::new(watch::channel(pending.len()).0);
         let stats = Arc::new(Mutex::new(BridgeStats::default()));
-        let task = BridgeTask {
-            mission,
-            link,
-            policy,
+        let outbox = Arc::new(Mutex::new(Outbox {
             pending,
+            timer: None,
+        }));
+        let wake = Arc::new(Notify::new());
+        let task = BridgeTask {
+            mission: mission.clone(),
+            link: link.clone(),
+            policy,
+            outbox: outbox.clone(),
+            wake: wake.clone(),
             delivered: recovered.map(|r| r.delivered.clone()).unwrap_or_default(),
             delivered_tx,
+            acks: HashMap::new(),
+            acks_due: None,
             unacked: unacked.clone(),
             stats: stats.clone(),
             journal: journal.clone(),
         };
-        tokio::spawn(task.run(frames, command_rx));
+        tokio::spawn(task.run(frames, stopped));
         (
             Bridges {
-                commands,
+                mission,
+                link,
+                policy,
+                outbox,
+                wake,
                 next_seq: Mutex::new(recovered.map_or(0, |r| r.last_seq)),
                 journal,
                 unacked,
                 stats,
+                _stop: stop,
             },
             delivered_rx,
         )
@@ -194,6 +234,10 @@ impl Bridges {
 
     /// Sends a token over `bridge` to `to`, until it is acknowledged.
     /// Returns the token's sequence number.
+    ///
+    /// The first copy leaves from this call when the link can take it
+    /// without waiting (every link here can, unless another send holds it
+    /// at that instant); otherwise the task sends it at once.
     pub fn send(&self, to: &str, bridge: &str, colour: Colour) -> u64 {
         let seq = {
             let mut s = self.next_seq.lock().expect("seq lock");
@@ -213,14 +257,48 @@ impl Bridges {
                 tracing::error!("{bridge} to {to} is sent but not journaled: {e}");
             }
         }
-        self.unacked.send_modify(|n| *n += 1);
-        let _ = self.commands.send(Command::Send {
-            to: to.to_string(),
+        let frame = Frame::Token(BridgeMessage {
+            mission: self.mission.clone(),
+            from: self.link.me().to_string(),
             bridge: bridge.to_string(),
-            colour,
+            colour: colour.clone(),
             seq,
         });
+        let key = (to.to_string(), bridge.to_string(), colour);
+        // Pending once sent: an ack quicker than this call (receivers hold
+        // theirs back for `ack_delay`) would only cost a retransmission,
+        // which the receiver acknowledges again.
+        let now = Instant::now();
+        match poll_once(self.link.send(to, &frame)) {
+            Some(sent) => {
+                if let Err(e) = sent {
+                    tracing::debug!("first send of {bridge} to {to} failed, will retry: {e}");
+                }
+                self.pend(key, frame, now + self.policy.initial);
+            }
+            None => self.pend(key, frame, now),
+        }
+        self.stats.lock().expect("stats lock").sent += 1;
         seq
+    }
+
+    /// Keeps `frame` until it is acknowledged, sending it again from `due`.
+    fn pend(&self, key: (PeerId, String, Colour), frame: Frame, due: Instant) {
+        let mut outbox = self.outbox.lock().expect("outbox lock");
+        let pending = Pending {
+            frame,
+            due,
+            wait: self.policy.initial,
+        };
+        if outbox.pending.insert(key, pending).is_none() {
+            // The same token sent again before its ack is still one to
+            // wait for.
+            self.unacked.send_modify(|n| *n += 1);
+        }
+        if outbox.timer.is_none_or(|t| due < t) {
+            outbox.timer = Some(due);
+            self.wake.notify_one();
+        }
     }
 
     /// Waits until every token sent so far has been acknowledged, or the
@@ -237,15 +315,29 @@ impl Bridges {
     }
 }
 
+/// Polls `f` once: its output if it is ready at once, `None` if it would
+/// wait (the future is then dropped; links' sends are cancel safe).
+fn poll_once<F: Future>(f: F) -> Option<F::Output> {
+    let mut f = std::pin::pin!(f);
+    match f.as_mut().poll(&mut Context::from_waker(Waker::noop())) {
+        Poll::Ready(out) => Some(out),
+        Poll::Pending => None,
+    }
+}
+
 struct BridgeTask {
     mission: String,
     link: Arc<dyn Link>,
     policy: RetransmitPolicy,
-    /// Sent and not yet acknowledged, by (receiver, bridge, colour).
-    pending: HashMap<(PeerId, String, Colour), Pending>,
+    outbox: Arc<Mutex<Outbox>>,
+    wake: Arc<Notify>,
     /// Already handed to the executor, by (sender, bridge, colour).
     delivered: HashSet<(PeerId, String, Colour)>,
     delivered_tx: mpsc::UnboundedSender<Delivered>,
+    /// Acknowledgements not sent yet, by the peer they go to.
+    acks: HashMap<PeerId, Vec<Ack>>,
+    /// When the acknowledgements held in `acks` leave.
+    acks_due: Option<Instant>,
     unacked: Arc<watch::Sender<usize>>,
     stats: Arc<Mutex<BridgeStats>>,
     journal: Option<Arc<Journal>>,
@@ -255,24 +347,37 @@ impl BridgeTask {
     async fn run(
         mut self,
         mut frames: mpsc::UnboundedReceiver<Frame>,
-        mut commands: mpsc::UnboundedReceiver<Command>,
+        mut stop: oneshot::Receiver<()>,
     ) {
         // A peer whose link has closed its inbound side can still send.
         let mut frames_open = true;
         loop {
-            let next_due = self.pending.values().map(|p| p.due).min();
+            let retransmit = {
+                let mut outbox = self.outbox.lock().expect("outbox lock");
+                outbox.timer = outbox.pending.values().map(|p| p.due).min();
+                outbox.timer
+            };
+            let next = match (retransmit, self.acks_due) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
             tokio::select! {
                 frame = frames.recv(), if frames_open => match frame {
-                    Some(frame) => self.on_frame(frame).await,
+                    Some(frame) => self.on_frame(frame),
                     None => frames_open = false,
                 },
-                command = commands.recv() => match command {
-                    Some(Command::Send { to, bridge, colour, seq }) => {
-                        self.on_send(to, bridge, colour, seq).await
+                _ = self.wake.notified() => {}
+                _ = &mut stop => {
+                    // The acknowledgements held back are owed already.
+                    self.send_acks().await;
+                    return;
+                }
+                _ = sleep_until_or_forever(next) => {
+                    self.retransmit_due().await;
+                    if self.acks_due.is_some_and(|t| t <= Instant::now()) {
+                        self.send_acks().await;
                     }
-                    None => return,
-                },
-                _ = sleep_until_or_forever(next_due) => self.retransmit_due().await,
+                }
             }
         }
     }
@@ -281,121 +386,133 @@ impl BridgeTask {
         f(&mut self.stats.lock().expect("stats lock"));
     }
 
-    async fn on_send(&mut self, to: PeerId, bridge: String, colour: Colour, seq: u64) {
-        let message = BridgeMessage {
-            mission: self.mission.clone(),
-            from: self.link.me().to_string(),
-            bridge: bridge.clone(),
-            colour: colour.clone(),
-            seq,
-        };
-        self.stat(|s| s.sent += 1);
-        if let Err(e) = self.link.send(&to, &Frame::Token(message.clone())).await {
-            tracing::debug!("first send of {bridge} to {to} failed, will retry: {e}");
-        }
-        let replaced = self.pending.insert(
-            (to, bridge, colour),
-            Pending {
-                message,
-                due: Instant::now() + self.policy.initial,
-                wait: self.policy.initial,
-            },
-        );
-        if replaced.is_some() {
-            // The same token sent again before its ack: still one to wait for.
-            self.unacked.send_modify(|n| *n -= 1);
+    fn on_frame(&mut self, frame: Frame) {
+        match frame {
+            Frame::Token(m) => self.on_token(m),
+            Frame::Ack(a) => self.on_ack(a),
+            Frame::Acks(acks) => {
+                for a in acks {
+                    self.on_ack(a);
+                }
+            }
         }
     }
 
-    async fn on_frame(&mut self, frame: Frame) {
-        match frame {
-            Frame::Token(m) => {
-                if m.mission != self.mission {
-                    self.stat(|s| s.foreign += 1);
-                    tracing::warn!("dropped a token of mission {} from {}", m.mission, m.from);
-                    return;
-                }
-                let key = (m.from.clone(), m.bridge.clone(), m.colour.clone());
-                let first = !self.delivered.contains(&key);
-                if first {
-                    if let Some(journal) = &self.journal {
-                        let record = Record::Consumed {
-                            from: m.from.clone(),
-                            bridge: m.bridge.clone(),
-                            colour: m.colour.clone(),
-                            seq: m.seq,
-                        };
-                        // Journaled before acknowledged; unjournaled, it is
-                        // not acknowledged and its sender tries again.
-                        if let Err(e) = journal.append(&record, true) {
-                            tracing::error!("{} from {} not acknowledged: {e}", m.bridge, m.from);
-                            return;
-                        }
-                    }
-                }
-                let ack = Frame::Ack(Ack {
-                    mission: self.mission.clone(),
-                    from: self.link.me().to_string(),
-                    bridge: m.bridge.clone(),
-                    colour: m.colour.clone(),
+    fn on_token(&mut self, m: BridgeMessage) {
+        if m.mission != self.mission {
+            self.stat(|s| s.foreign += 1);
+            tracing::warn!("dropped a token of mission {} from {}", m.mission, m.from);
+            return;
+        }
+        let key = (m.from, m.bridge, m.colour);
+        let first = !self.delivered.contains(&key);
+        if first {
+            if let Some(journal) = &self.journal {
+                let record = Record::Consumed {
+                    from: key.0.clone(),
+                    bridge: key.1.clone(),
+                    colour: key.2.clone(),
                     seq: m.seq,
-                });
-                // Every copy is acknowledged: the ack of the first may be lost.
-                if let Err(e) = self.link.send(&m.from, &ack).await {
-                    tracing::debug!("ack to {} failed: {e}", m.from);
-                }
-                self.stat(|s| s.acks_sent += 1);
-                if first {
-                    self.delivered.insert(key);
-                    self.stat(|s| s.received += 1);
-                    let _ = self.delivered_tx.send(Delivered {
-                        from: m.from,
-                        bridge: m.bridge,
-                        colour: m.colour,
-                        seq: m.seq,
-                    });
-                } else {
-                    self.stat(|s| s.duplicates += 1);
-                }
-            }
-            Frame::Ack(a) => {
-                if a.mission != self.mission {
-                    self.stat(|s| s.foreign += 1);
+                };
+                // Journaled before handed on and acknowledged; unjournaled,
+                // it is not acknowledged and its sender tries again.
+                if let Err(e) = journal.append(&record, true) {
+                    tracing::error!("{} from {} not acknowledged: {e}", key.1, key.0);
                     return;
                 }
-                let key = (a.from, a.bridge, a.colour);
-                if self.pending.remove(&key).is_some() {
-                    self.unacked.send_modify(|n| *n -= 1);
-                    if let Some(journal) = &self.journal {
-                        // Not flushed: an ack lost in a crash only costs a
-                        // copy that the receiver drops.
-                        let (to, bridge, colour) = key;
-                        let record = Record::Acked { to, bridge, colour };
-                        if let Err(e) = journal.append(&record, false) {
-                            tracing::warn!("an acknowledgement is not journaled: {e}");
-                        }
-                    }
+            }
+        }
+        // Every copy is acknowledged (the ack of the first may be lost),
+        // after the executor has the token: the ack is not on its path.
+        let ack = Ack {
+            mission: self.mission.clone(),
+            from: self.link.me().to_string(),
+            bridge: key.1.clone(),
+            colour: key.2.clone(),
+            seq: m.seq,
+        };
+        if first {
+            self.stat(|s| s.received += 1);
+            let _ = self.delivered_tx.send(Delivered {
+                from: key.0.clone(),
+                bridge: key.1.clone(),
+                colour: key.2.clone(),
+                seq: m.seq,
+            });
+            self.delivered.insert(key.clone());
+        } else {
+            self.stat(|s| s.duplicates += 1);
+        }
+        self.acks.entry(key.0).or_default().push(ack);
+        if self.acks_due.is_none() {
+            self.acks_due = Some(Instant::now() + self.policy.ack_delay);
+        }
+    }
+
+    fn on_ack(&mut self, a: Ack) {
+        if a.mission != self.mission {
+            self.stat(|s| s.foreign += 1);
+            return;
+        }
+        let key = (a.from, a.bridge, a.colour);
+        let removed = {
+            let mut outbox = self.outbox.lock().expect("outbox lock");
+            let removed = outbox.pending.remove(&key).is_some();
+            if removed {
+                self.unacked.send_modify(|n| *n -= 1);
+            }
+            removed
+        };
+        if removed {
+            if let Some(journal) = &self.journal {
+                // Not flushed: an ack lost in a crash only costs a copy
+                // that the receiver drops.
+                let (to, bridge, colour) = key;
+                let record = Record::Acked { to, bridge, colour };
+                if let Err(e) = journal.append(&record, false) {
+                    tracing::warn!("an acknowledgement is not journaled: {e}");
                 }
             }
+        }
+    }
+
+    /// Sends the acknowledgements held back, one frame per peer.
+    async fn send_acks(&mut self) {
+        self.acks_due = None;
+        for (peer, mut acks) in std::mem::take(&mut self.acks) {
+            let n = acks.len() as u64;
+            let frame = if acks.len() == 1 {
+                Frame::Ack(acks.pop().expect("one ack"))
+            } else {
+                Frame::Acks(acks)
+            };
+            if let Err(e) = self.link.send(&peer, &frame).await {
+                tracing::debug!("acks to {peer} failed: {e}");
+            }
+            self.stat(|s| s.acks_sent += n);
         }
     }
 
     async fn retransmit_due(&mut self) {
         let now = Instant::now();
-        let mut due: Vec<BridgeMessage> = Vec::new();
-        let mut to: Vec<PeerId> = Vec::new();
-        for ((peer, _, _), p) in self.pending.iter_mut() {
-            if p.due <= now {
-                due.push(p.message.clone());
-                to.push(peer.clone());
-                p.wait = p.wait.mul_f64(self.policy.factor).min(self.policy.max);
-                p.due = now + p.wait;
+        let due: Vec<(PeerId, Frame)> = {
+            let mut outbox = self.outbox.lock().expect("outbox lock");
+            let mut due = Vec::new();
+            for ((peer, _, _), p) in outbox.pending.iter_mut() {
+                if p.due <= now {
+                    due.push((peer.clone(), p.frame.clone()));
+                    p.wait = p.wait.mul_f64(self.policy.factor).min(self.policy.max);
+                    p.due = now + p.wait;
+                }
             }
-        }
-        for (peer, m) in to.into_iter().zip(due) {
+            due
+        };
+        for (peer, frame) in due {
             self.stat(|s| s.retransmissions += 1);
-            tracing::debug!("retransmitting {} {:?} to {peer}", m.bridge, m.colour);
-            let _ = self.link.send(&peer, &Frame::Token(m)).await;
+            if let Frame::Token(m) = &frame {
+                tracing::debug!("retransmitting {} {:?} to {peer}", m.bridge, m.colour);
+            }
+            let _ = self.link.send(&peer, &frame).await;
         }
     }
 }
@@ -430,6 +547,7 @@ mod tests {
                 initial: Duration::from_millis(5),
                 max: Duration::from_millis(40),
                 factor: 2.0,
+                ack_delay: Duration::from_millis(1),
             },
         )
     }
@@ -505,6 +623,78 @@ mod tests {
         assert_eq!(tx.flush(Duration::from_millis(100)).await, 1);
         assert!(rx.try_recv().is_err());
         assert!(b.stats().foreign > 0);
+    }
+
+    fn token(bridge: &str, colour: u32) -> Frame {
+        Frame::Token(BridgeMessage {
+            mission: "M".into(),
+            from: "D1".into(),
+            bridge: bridge.into(),
+            colour: vec![colour],
+            seq: u64::from(colour),
+        })
+    }
+
+    fn acked(frame: Frame) -> Vec<(String, Colour)> {
+        match frame {
+            Frame::Ack(a) => vec![(a.bridge, a.colour)],
+            Frame::Acks(acks) => acks.into_iter().map(|a| (a.bridge, a.colour)).collect(),
+            Frame::Token(m) => panic!("a token where an ack was expected: {m:?}"),
+        }
+    }
+
+    #[tokio::test]
+    async fn tokens_received_together_are_handed_on_at_once_and_acknowledged_in_one_frame() {
+        let hub = InProcessHub::new();
+        let mut sender = hub.connect("D1", &[]);
+        let receiver = hub.connect("D2", &[]);
+        let (_b, mut rx) = Bridges::start(
+            "M",
+            receiver.link,
+            receiver.frames,
+            RetransmitPolicy {
+                ack_delay: Duration::from_millis(50),
+                ..RetransmitPolicy::default()
+            },
+        );
+        for c in 0..3 {
+            sender.link.send("D2", &token("b", c)).await.unwrap();
+        }
+        for c in 0..3 {
+            assert_eq!(rx.recv().await.unwrap().colour, vec![c]);
+        }
+        let frame = sender.frames.recv().await.unwrap();
+        assert_eq!(
+            acked(frame),
+            (0..3)
+                .map(|c| ("b".to_string(), vec![c]))
+                .collect::<Vec<_>>()
+        );
+        assert!(sender.frames.try_recv().is_err(), "one frame for the three");
+    }
+
+    #[tokio::test]
+    async fn acknowledgements_held_back_still_leave_when_the_bridges_are_dropped() {
+        let hub = InProcessHub::new();
+        let mut sender = hub.connect("D1", &[]);
+        let receiver = hub.connect("D2", &[]);
+        let (b, mut rx) = Bridges::start(
+            "M",
+            receiver.link,
+            receiver.frames,
+            RetransmitPolicy {
+                ack_delay: Duration::from_secs(3600),
+                ..RetransmitPolicy::default()
+            },
+        );
+        sender.link.send("D2", &token("end", 0)).await.unwrap();
+        rx.recv().await.unwrap();
+        drop(b);
+        let frame = tokio::time::timeout(Duration::from_secs(10), sender.frames.recv())
+            .await
+            .expect("the ack leaves before the hour is up")
+            .unwrap();
+        assert_eq!(acked(frame), vec![("end".to_string(), vec![0])]);
     }
 
     #[tokio::test]
