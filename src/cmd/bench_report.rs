@@ -282,10 +282,16 @@ fn probe_once(exe: &Path, what: &[&str]) -> Result<Process, String> {
         to_ready = started.elapsed();
         said = out.lines().map_while(Result::ok).collect();
     }
-    let (ok, peak_kib) = wait_with_peak(&mut child)?;
-    if !ok || line.trim() != "ready" {
+    let (ok, rusage_kib) = wait_with_peak(&mut child)?;
+    let mut words = line.split_whitespace();
+    if !ok || words.next() != Some("ready") {
         return Err(format!("the probe `{}` failed (see above)", what.join(" ")));
     }
+    // The child's own figure where it has one: see `own_peak_kib`.
+    let peak_kib = words
+        .next()
+        .and_then(|w| w.parse().ok())
+        .unwrap_or(rusage_kib);
     Ok(Process {
         to_ready,
         peak_kib,
@@ -330,7 +336,19 @@ fn wait_with_peak(child: &mut std::process::Child) -> Result<(bool, u64), String
     Ok((status.success(), 0))
 }
 
-/// The child side: do one thing, say "ready" (and what it found), exit.
+/// The peak resident set of this process so far, in KiB, from
+/// `/proc/self/status` (Linux). `wait4`'s `ru_maxrss` cannot be trusted
+/// for it: Linux counts into a child's maximum the pages it shared with its
+/// parent between `fork` and `exec`, so every probe would weigh at least as
+/// much as the report that started it.
+fn own_peak_kib() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// The child side: do one thing, say "ready" (with its peak memory where the
+/// system tells it, and what it found), exit.
 fn run_probe(probe: &[String]) -> ExitCode {
     let result = match probe {
         [what] if what == "idle" => Ok(String::new()),
@@ -344,7 +362,10 @@ fn run_probe(probe: &[String]) -> ExitCode {
     };
     match result {
         Ok(said) => {
-            println!("ready");
+            match own_peak_kib() {
+                Some(kib) => println!("ready {kib}"),
+                None => println!("ready"),
+            }
             if !said.is_empty() {
                 println!("{said}");
             }
