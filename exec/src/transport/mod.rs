@@ -141,6 +141,10 @@ fn describe_unlinked(pairs: &[(PeerId, PeerId)]) -> String {
         .join(", ")
 }
 
+/// Takes the frames addressed to a peer as they arrive (see
+/// [`Link::route_frames`]).
+pub type FrameHandler = std::sync::Arc<dyn Fn(Frame) + Send + Sync>;
+
 /// Moves frames between peers, best effort: no retransmission, no
 /// deduplication, no ordering (that is [`reliable::Bridges`]' job).
 #[async_trait]
@@ -151,6 +155,17 @@ pub trait Link: Send + Sync + 'static {
     /// Sends one frame to one peer. `Ok` means handed to the network, not
     /// received: a peer that is not up yet simply misses the frame.
     async fn send(&self, to: &str, frame: &Frame) -> Result<(), TransportError>;
+
+    /// From now on hands every frame addressed to this peer to `handler`,
+    /// on the link's own receiving thread, rather than to the `frames`
+    /// channel of its [`Endpoint`]: one hop less for a token on its way to
+    /// the executor. `false` if the link cannot (or already hands its
+    /// frames to another handler); its frames then keep coming on the
+    /// channel, as do frames queued there before.
+    fn route_frames(&self, handler: FrameHandler) -> bool {
+        let _ = handler;
+        false
+    }
 
     /// Publishes this drone's telemetry to every peer subscribed to it.
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError>;

@@ -200,19 +200,29 @@ impl Bridges {
             timer: None,
         }));
         let wake = Arc::new(Notify::new());
-        let task = BridgeTask {
+        let inbound = Arc::new(Inbound {
             mission: mission.clone(),
+            me: me.clone(),
+            policy,
+            outbox: outbox.clone(),
+            wake: wake.clone(),
+            state: Mutex::new(Received {
+                delivered: recovered.map(|r| r.delivered.clone()).unwrap_or_default(),
+                acks: HashMap::new(),
+                acks_due: None,
+            }),
+            delivered_tx,
+            unacked: unacked.clone(),
+            stats: stats.clone(),
+            journal: journal.clone(),
+        });
+        let task = BridgeTask {
             link: link.clone(),
             policy,
             outbox: outbox.clone(),
             wake: wake.clone(),
-            delivered: recovered.map(|r| r.delivered.clone()).unwrap_or_default(),
-            delivered_tx,
-            acks: HashMap::new(),
-            acks_due: None,
-            unacked: unacked.clone(),
+            inbound,
             stats: stats.clone(),
-            journal: journal.clone(),
         };
         tokio::spawn(task.run(frames, stopped));
         (
@@ -325,68 +335,40 @@ fn poll_once<F: Future>(f: F) -> Option<F::Output> {
     }
 }
 
-struct BridgeTask {
+/// The receiving side, shared by the bridges' task and, on a link that
+/// routes frames (see [`Link::route_frames`]), the link's receiving
+/// thread: a token reaches the executor straight from there.
+struct Inbound {
     mission: String,
-    link: Arc<dyn Link>,
+    me: PeerId,
     policy: RetransmitPolicy,
     outbox: Arc<Mutex<Outbox>>,
+    /// Wakes the task when acknowledgements start to wait.
     wake: Arc<Notify>,
-    /// Already handed to the executor, by (sender, bridge, colour).
-    delivered: HashSet<(PeerId, String, Colour)>,
+    /// Held across the journal and the hand-over of a token: two copies
+    /// arriving at once on two threads are still handed on once.
+    state: Mutex<Received>,
     delivered_tx: mpsc::UnboundedSender<Delivered>,
-    /// Acknowledgements not sent yet, by the peer they go to.
-    acks: HashMap<PeerId, Vec<Ack>>,
-    /// When the acknowledgements held in `acks` leave.
-    acks_due: Option<Instant>,
     unacked: Arc<watch::Sender<usize>>,
     stats: Arc<Mutex<BridgeStats>>,
     journal: Option<Arc<Journal>>,
 }
 
-impl BridgeTask {
-    async fn run(
-        mut self,
-        mut frames: mpsc::UnboundedReceiver<Frame>,
-        mut stop: oneshot::Receiver<()>,
-    ) {
-        // A peer whose link has closed its inbound side can still send.
-        let mut frames_open = true;
-        loop {
-            let retransmit = {
-                let mut outbox = self.outbox.lock().expect("outbox lock");
-                outbox.timer = outbox.pending.values().map(|p| p.due).min();
-                outbox.timer
-            };
-            let next = match (retransmit, self.acks_due) {
-                (Some(a), Some(b)) => Some(a.min(b)),
-                (a, b) => a.or(b),
-            };
-            tokio::select! {
-                frame = frames.recv(), if frames_open => match frame {
-                    Some(frame) => self.on_frame(frame),
-                    None => frames_open = false,
-                },
-                _ = self.wake.notified() => {}
-                _ = &mut stop => {
-                    // The acknowledgements held back are owed already.
-                    self.send_acks().await;
-                    return;
-                }
-                _ = sleep_until_or_forever(next) => {
-                    self.retransmit_due().await;
-                    if self.acks_due.is_some_and(|t| t <= Instant::now()) {
-                        self.send_acks().await;
-                    }
-                }
-            }
-        }
-    }
+struct Received {
+    /// Already handed to the executor, by (sender, bridge, colour).
+    delivered: HashSet<(PeerId, String, Colour)>,
+    /// Acknowledgements not sent yet, by the peer they go to.
+    acks: HashMap<PeerId, Vec<Ack>>,
+    /// When the acknowledgements held in `acks` leave.
+    acks_due: Option<Instant>,
+}
 
+impl Inbound {
     fn stat(&self, f: impl FnOnce(&mut BridgeStats)) {
         f(&mut self.stats.lock().expect("stats lock"));
     }
 
-    fn on_frame(&mut self, frame: Frame) {
+    fn on_frame(&self, frame: Frame) {
         match frame {
             Frame::Token(m) => self.on_token(m),
             Frame::Ack(a) => self.on_ack(a),
@@ -398,14 +380,15 @@ impl BridgeTask {
         }
     }
 
-    fn on_token(&mut self, m: BridgeMessage) {
+    fn on_token(&self, m: BridgeMessage) {
         if m.mission != self.mission {
             self.stat(|s| s.foreign += 1);
             tracing::warn!("dropped a token of mission {} from {}", m.mission, m.from);
             return;
         }
+        let mut state = self.state.lock().expect("inbound lock");
         let key = (m.from, m.bridge, m.colour);
-        let first = !self.delivered.contains(&key);
+        let first = !state.delivered.contains(&key);
         if first {
             if let Some(journal) = &self.journal {
                 let record = Record::Consumed {
@@ -426,7 +409,7 @@ impl BridgeTask {
         // after the executor has the token: the ack is not on its path.
         let ack = Ack {
             mission: self.mission.clone(),
-            from: self.link.me().to_string(),
+            from: self.me.clone(),
             bridge: key.1.clone(),
             colour: key.2.clone(),
             seq: m.seq,
@@ -439,17 +422,18 @@ impl BridgeTask {
                 colour: key.2.clone(),
                 seq: m.seq,
             });
-            self.delivered.insert(key.clone());
+            state.delivered.insert(key.clone());
         } else {
             self.stat(|s| s.duplicates += 1);
         }
-        self.acks.entry(key.0).or_default().push(ack);
-        if self.acks_due.is_none() {
-            self.acks_due = Some(Instant::now() + self.policy.ack_delay);
+        state.acks.entry(key.0).or_default().push(ack);
+        if state.acks_due.is_none() {
+            state.acks_due = Some(Instant::now() + self.policy.ack_delay);
+            self.wake.notify_one();
         }
     }
 
-    fn on_ack(&mut self, a: Ack) {
+    fn on_ack(&self, a: Ack) {
         if a.mission != self.mission {
             self.stat(|s| s.foreign += 1);
             return;
@@ -476,10 +460,78 @@ impl BridgeTask {
         }
     }
 
+    /// The acknowledgements held back, now owed, by peer.
+    fn take_acks(&self) -> HashMap<PeerId, Vec<Ack>> {
+        let mut state = self.state.lock().expect("inbound lock");
+        state.acks_due = None;
+        std::mem::take(&mut state.acks)
+    }
+}
+
+struct BridgeTask {
+    link: Arc<dyn Link>,
+    policy: RetransmitPolicy,
+    outbox: Arc<Mutex<Outbox>>,
+    wake: Arc<Notify>,
+    inbound: Arc<Inbound>,
+    stats: Arc<Mutex<BridgeStats>>,
+}
+
+impl BridgeTask {
+    async fn run(
+        self,
+        mut frames: mpsc::UnboundedReceiver<Frame>,
+        mut stop: oneshot::Receiver<()>,
+    ) {
+        // Frames the link hands over on its own thread skip this task; the
+        // handler lets go once the task (and with it the bridges) ends.
+        let inbound = Arc::downgrade(&self.inbound);
+        self.link.route_frames(Arc::new(move |frame| {
+            if let Some(inbound) = inbound.upgrade() {
+                inbound.on_frame(frame);
+            }
+        }));
+        // A peer whose link has closed its inbound side can still send.
+        let mut frames_open = true;
+        loop {
+            let retransmit = {
+                let mut outbox = self.outbox.lock().expect("outbox lock");
+                outbox.timer = outbox.pending.values().map(|p| p.due).min();
+                outbox.timer
+            };
+            let acks_due = self.inbound.state.lock().expect("inbound lock").acks_due;
+            let next = match (retransmit, acks_due) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            };
+            tokio::select! {
+                frame = frames.recv(), if frames_open => match frame {
+                    Some(frame) => self.inbound.on_frame(frame),
+                    None => frames_open = false,
+                },
+                _ = self.wake.notified() => {}
+                _ = &mut stop => {
+                    // The acknowledgements held back are owed already.
+                    self.send_acks().await;
+                    return;
+                }
+                _ = sleep_until_or_forever(next) => {
+                    self.retransmit_due().await;
+                    if acks_due.is_some_and(|t| t <= Instant::now()) {
+                        self.send_acks().await;
+                    }
+                }
+            }
+        }
+    }
+
+    fn stat(&self, f: impl FnOnce(&mut BridgeStats)) {
+        f(&mut self.stats.lock().expect("stats lock"));
+    }
+
     /// Sends the acknowledgements held back, one frame per peer.
-    async fn send_acks(&mut self) {
-        self.acks_due = None;
-        for (peer, mut acks) in std::mem::take(&mut self.acks) {
+    async fn send_acks(&self) {
+        for (peer, mut acks) in self.inbound.take_acks() {
             let n = acks.len() as u64;
             let frame = if acks.len() == 1 {
                 Frame::Ack(acks.pop().expect("one ack"))
@@ -493,7 +545,7 @@ impl BridgeTask {
         }
     }
 
-    async fn retransmit_due(&mut self) {
+    async fn retransmit_due(&self) {
         let now = Instant::now();
         let due: Vec<(PeerId, Frame)> = {
             let mut outbox = self.outbox.lock().expect("outbox lock");

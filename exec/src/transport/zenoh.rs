@@ -24,7 +24,7 @@
 
 use std::collections::{BTreeSet, HashMap, HashSet};
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
 use async_trait::async_trait;
@@ -34,7 +34,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::SampleKind;
 use zenoh::Session;
 
-use super::{Endpoint, Frame, Link, PeerId, TelemetryFrame, TransportError};
+use super::{Endpoint, Frame, FrameHandler, Link, PeerId, TelemetryFrame, TransportError};
 
 /// How one peer joins the zenoh network.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -198,15 +198,20 @@ pub async fn open(
     let (frames_tx, frames) = mpsc::unbounded_channel();
     let (telemetry_tx, telemetry) = mpsc::unbounded_channel();
     let mut subscribers = Vec::new();
+    let handler: Arc<OnceLock<FrameHandler>> = Arc::default();
     for what in ["bridge", "ack"] {
         let tx = frames_tx.clone();
+        let handler = handler.clone();
         let sub = session
             .declare_subscriber(key(mission, me, what))
             .callback(
                 move |sample| match Frame::decode(&sample.payload().to_bytes()) {
-                    Ok(f) => {
-                        let _ = tx.send(f);
-                    }
+                    Ok(f) => match handler.get() {
+                        Some(h) => h(f),
+                        None => {
+                            let _ = tx.send(f);
+                        }
+                    },
                     Err(e) => tracing::warn!("dropped a frame on {}: {e}", sample.key_expr()),
                 },
             )
@@ -280,6 +285,7 @@ pub async fn open(
         mission: mission.to_string(),
         session,
         publishers: tokio::sync::Mutex::new(HashMap::new()),
+        handler,
         alive,
         _subscribers: subscribers,
         _alive_subscriber: alive_sub,
@@ -391,6 +397,8 @@ struct ZenohLink {
     session: Session,
     /// Declared once per key and reused: declaring is a network round.
     publishers: tokio::sync::Mutex<HashMap<String, Publisher<'static>>>,
+    /// Where frames go once set (see [`Link::route_frames`]).
+    handler: Arc<OnceLock<FrameHandler>>,
     alive: Arc<Alive>,
     /// The peers whose liveliness token is up (see [`Link::presence`]).
     presence: Arc<watch::Sender<BTreeSet<PeerId>>>,
@@ -431,6 +439,10 @@ impl Link for ZenohLink {
             Frame::Ack(_) | Frame::Acks(_) => "ack",
         };
         self.put(key(&self.mission, to, what), frame.encode()).await
+    }
+
+    fn route_frames(&self, handler: FrameHandler) -> bool {
+        self.handler.set(handler).is_ok()
     }
 
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
@@ -774,6 +786,42 @@ mod tests {
             .await
             .expect("every two peers meet");
         drop((d1, d2));
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn frames_routed_to_a_handler_reach_it_and_not_the_channel_and_only_one_handler_is_taken()
+    {
+        let (pa, pb) = (free_port(), free_port());
+        let mission = "RouteTest-1";
+        let a = peer(mission, "D1", pa, &[pb]).await;
+        let mut b = peer(mission, "D2", pb, &[pa]).await;
+        a.link
+            .wait_for_peers(&["D2".into()], Duration::from_secs(20))
+            .await
+            .unwrap();
+        let (tx, mut routed) = mpsc::unbounded_channel();
+        assert!(b.link.route_frames(Arc::new(move |f| {
+            let _ = tx.send(f);
+        })));
+        assert!(!b.link.route_frames(Arc::new(|_| {})), "a second handler");
+        let token = Frame::Token(crate::transport::BridgeMessage {
+            mission: mission.into(),
+            from: "D1".into(),
+            bridge: "b1".into(),
+            colour: vec![],
+            seq: 1,
+        });
+        // Sent until it arrives: D2's subscription may reach D1 late.
+        let got = loop {
+            a.link.send("D2", &token).await.unwrap();
+            if let Ok(Some(f)) =
+                tokio::time::timeout(Duration::from_millis(200), routed.recv()).await
+            {
+                break f;
+            }
+        };
+        assert_eq!(got, token);
+        assert!(b.frames.try_recv().is_err(), "nothing on the channel");
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
