@@ -334,6 +334,11 @@ impl Executor {
         self.actions_cancelled = r.actions_cancelled;
         self.sent = r.sent;
         self.received = r.received;
+        self.alive.delivered = r
+            .delivered
+            .iter()
+            .filter_map(|(_, bridge, _)| bridge.parse().ok())
+            .collect();
     }
 
     /// After a restart from a journal: ends at once if the mission had
@@ -997,6 +1002,7 @@ impl Executor {
             tracing::warn!("{}: token on bridge {id}, which is not ours", self.me());
             return;
         };
+        self.alive.delivered.insert(id);
         self.received += 1;
         self.note(MissionEvent::BridgeReceived {
             bridge: id,

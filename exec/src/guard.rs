@@ -1,9 +1,11 @@
 //! Conditions of guards, evaluated over the latest telemetry of the drones
 //! they read: this drone's own, and other drones' as received over the
 //! transport. A condition over a drone whose telemetry has not arrived yet
-//! is undecided, never false: a branch must not be taken on a guess.
+//! is undecided, never false: a branch must not be taken on a guess. Nor is
+//! the last telemetry of a drone that has since been lost: it is frozen, not
+//! an answer, so a condition over it is undecided until the drone is back.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use eamos_lang::hir::{BinaryOp, Expr, UnaryOp};
 use eamos_mid::{evaluate_property, PropertyArg, Telemetry, Value};
@@ -13,6 +15,8 @@ use eamos_mid::{evaluate_property, PropertyArg, Telemetry, Value};
 pub enum EvalError {
     #[error("no telemetry from {0} yet")]
     NoTelemetry(String),
+    #[error("{0} is lost: its last telemetry is no answer")]
+    Lost(String),
     #[error("{0}")]
     Property(String),
     #[error("type mismatch in a condition: {0}")]
@@ -24,6 +28,8 @@ pub enum EvalError {
 pub struct World {
     names: Vec<String>,
     latest: HashMap<u16, Telemetry>,
+    /// Drones lost (by liveness) whose telemetry no condition may use.
+    lost: HashSet<u16>,
 }
 
 impl World {
@@ -32,6 +38,7 @@ impl World {
         World {
             names,
             latest: HashMap::new(),
+            lost: HashSet::new(),
         }
     }
 
@@ -47,15 +54,30 @@ impl World {
         self.latest.get(&drone)
     }
 
+    /// Marks `drone` lost or back: while it is lost, conditions over it are
+    /// undecided ([`EvalError::Lost`]) whatever it last sent.
+    pub fn set_lost(&mut self, drone: u16, lost: bool) {
+        if lost {
+            self.lost.insert(drone);
+        } else {
+            self.lost.remove(&drone);
+        }
+    }
+
+    fn name(&self, drone: u16) -> String {
+        self.names
+            .get(drone as usize)
+            .cloned()
+            .unwrap_or_else(|| format!("drone#{drone}"))
+    }
+
     fn telemetry(&self, drone: u16) -> Result<&Telemetry, EvalError> {
-        self.latest.get(&drone).ok_or_else(|| {
-            EvalError::NoTelemetry(
-                self.names
-                    .get(drone as usize)
-                    .cloned()
-                    .unwrap_or_else(|| format!("drone#{drone}")),
-            )
-        })
+        if self.lost.contains(&drone) {
+            return Err(EvalError::Lost(self.name(drone)));
+        }
+        self.latest
+            .get(&drone)
+            .ok_or_else(|| EvalError::NoTelemetry(self.name(drone)))
     }
 
     /// The value of `e` now.
@@ -229,6 +251,32 @@ mod tests {
             span: Span::default(),
         };
         assert_eq!(w.eval(&e), Ok(Value::Number(5.0)));
+    }
+
+    #[test]
+    fn the_frozen_telemetry_of_a_lost_drone_decides_nothing_until_it_is_back() {
+        let mut w = World::new(vec!["D1".into(), "D2".into()]);
+        w.set(0, at(5.0, 0.0));
+        w.set(1, at(5.0, 0.0));
+        let theirs = bin(BinaryOp::Gt, prop(1, "X"), num(0.0));
+        assert_eq!(w.holds(&theirs), Ok(true));
+        w.set_lost(1, true);
+        assert_eq!(w.holds(&theirs), Err(EvalError::Lost("D2".into())));
+        let not_theirs = Expr::Unary {
+            op: UnaryOp::Not,
+            operand: Box::new(theirs.clone()),
+            span: Span::default(),
+        };
+        assert_eq!(w.holds(&not_theirs), Err(EvalError::Lost("D2".into())));
+        // An answer that does not need the lost drone still stands.
+        let either = bin(
+            BinaryOp::Or,
+            theirs.clone(),
+            bin(BinaryOp::Gt, prop(0, "X"), num(0.0)),
+        );
+        assert_eq!(w.holds(&either), Ok(true));
+        w.set_lost(1, false);
+        assert_eq!(w.holds(&theirs), Ok(true));
     }
 
     #[test]

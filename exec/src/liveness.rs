@@ -8,9 +8,13 @@
 //! as far as the mission is concerned.
 //!
 //! A drone is *stuck* on a lost peer when it has nothing left to do on its
-//! own (no action running, no pause counting) and its marking waits for a
-//! token that only that peer would send (a transition whose missing inputs
-//! are all inboxes of bridges from it). A drone that has lost every other
+//! own (no action running, no pause counting) and waits for something only
+//! that peer would send: a token (a transition whose missing inputs are all
+//! inboxes of bridges from it, or, when the drone holds no token at all,
+//! bridges from it being the only ones still to deliver, see
+//! [`waits_for_handover`]) or telemetry (a condition with all its tokens
+//! that has no answer because it reads the lost peer and no drone up but
+//! this one: the peer's last telemetry, frozen, is no answer). A drone that has lost every other
 //! peer, the ground station included, is stuck on all of them as soon as it
 //! is idle: nobody can tell it the mission ended or was aborted, so it
 //! decides alone. Drones that do not wait on the lost peer carry on
@@ -180,6 +184,36 @@ pub fn waits_on(slice: &Slice, marking: &[Vec<Colour>]) -> BTreeSet<PeerId> {
         out.extend(missing.iter().map(|p| inbox_from[p].to_string()));
     }
     out
+}
+
+/// The peers a drone that holds no token waits on. With nothing marked
+/// (and its end of the mission not reached), its next token can only come
+/// over a bridge; when every bridge into it that has not delivered yet in
+/// this run comes from lost peers, only they can send it: the thread of
+/// the mission is with them (a condition that only they answer is decided
+/// on their side, for instance). `delivered` holds the bridges that have
+/// delivered. A bridge of a loop that delivered once may deliver again, so
+/// a live sender of one keeps the drone from counting as stuck only until
+/// it has delivered: the rule errs towards waiting, never towards a guess.
+pub fn waits_for_handover(
+    slice: &Slice,
+    marking: &[Vec<Colour>],
+    delivered: &BTreeSet<u32>,
+    lost: &BTreeSet<PeerId>,
+) -> BTreeSet<PeerId> {
+    if marking.iter().any(|tokens| !tokens.is_empty()) {
+        return BTreeSet::new();
+    }
+    let pending: BTreeSet<&str> = slice
+        .bridges_in
+        .iter()
+        .filter(|b| !delivered.contains(&b.id))
+        .map(|b| b.from.as_str())
+        .collect();
+    if pending.is_empty() || !pending.iter().all(|p| lost.contains(*p)) {
+        return BTreeSet::new();
+    }
+    pending.into_iter().map(str::to_string).collect()
 }
 
 /// The control bridge on which a stuck drone tells the ground station.

@@ -29,10 +29,14 @@ fn example(name: &str) -> PathBuf {
 
 fn slices() -> (Slices, Arc<SourceFile>) {
     let path = example("dropout.go");
-    let file = SourceFile::new(
-        path.display().to_string(),
-        std::fs::read_to_string(&path).unwrap(),
-    );
+    slices_of(
+        &path.display().to_string(),
+        &std::fs::read_to_string(&path).unwrap(),
+    )
+}
+
+fn slices_of(name: &str, text: &str) -> (Slices, Arc<SourceFile>) {
+    let file = SourceFile::new(name.to_string(), text.to_string());
     let profiles = eamos_mid::profiles::builtin();
     let mission = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&mission, &profiles);
@@ -96,7 +100,16 @@ impl Run {
 /// Flies the mission with `fleet`, cutting Lead off as it starts its long
 /// leg.
 async fn fly_and_cut_lead(fleet: &str, heal: Heal) -> Run {
-    let (slices, source) = slices();
+    fly_mission_and_cut_lead(slices(), fleet, heal).await
+}
+
+/// Flies `mission` with `fleet`, cutting Lead off as it starts its first
+/// `FlyByX`.
+async fn fly_mission_and_cut_lead(
+    (slices, source): (Slices, Arc<SourceFile>),
+    fleet: &str,
+    heal: Heal,
+) -> Run {
     let fleet = Fleet::parse(
         fleet,
         "fleet.toml",
@@ -315,4 +328,209 @@ async fn a_drone_cut_off_from_everyone_decides_alone_once_it_has_nothing_left_to
         &r.event,
         MissionEvent::ActionFinished { action, outcome, .. } if action == "Land()" && outcome == "ok"
     )), "{:#?}", lead_log.iter().map(|r| &r.event).collect::<Vec<_>>());
+}
+
+/// The mission of the condition tests: Free hovers a while on its own,
+/// Lead sets off on a long leg (and is cut as it does), Follow flies out,
+/// pauses, and then its part depends on `follow_waits`, a guard leading to
+/// `SEQ_Near` (a leg and a landing) or `SEQ_Far` (a landing).
+fn watching(follow_waits: &str) -> (Slices, Arc<SourceFile>) {
+    watching_declared(["Free", "Lead", "Follow"], follow_waits)
+}
+
+/// [`watching`] with the drones declared in `order`: a condition is decided
+/// by the first drone it reads in declaration order.
+fn watching_declared(order: [&str; 3], follow_waits: &str) -> (Slices, Arc<SourceFile>) {
+    let [first, second, third] = order;
+    let text = format!(
+        r#"package Watching
+
+var (
+	{first} Quadcopter
+	{second} Quadcopter
+	{third} Quadcopter
+)
+
+func PAR_Mission() {{
+	SEQ_Free()
+	SEQ_Lead()
+	SEQ_Follow()
+}}
+
+func SEQ_Free() {{
+	Free.Arm()
+	Free.Takeoff(3)
+	Free.Hover(40)
+	Free.Land()
+}}
+
+func SEQ_Lead() {{
+	Lead.Arm()
+	Lead.Takeoff(3)
+	Lead.FlyByX(100)
+	Lead.Land()
+}}
+
+func SEQ_Follow() {{
+	Follow.Arm()
+	Follow.Takeoff(4)
+	Follow.FlyByY(5)
+	PauseFor(5)
+	{follow_waits}
+}}
+"#
+    );
+    let mut text = text;
+    if follow_waits.contains("SEQ_Near") {
+        text.push_str("\nfunc SEQ_Near() {\n\tFollow.FlyByX(20)\n\tFollow.Land()\n}\n");
+    }
+    if follow_waits.contains("SEQ_Far") {
+        text.push_str("\nfunc SEQ_Far() {\n\tFollow.Land()\n}\n");
+    }
+    slices_of("watching.go", &text)
+}
+
+fn actions_started(run: &Run, peer: &str) -> Vec<String> {
+    run.log(peer)
+        .into_iter()
+        .filter_map(|r| match r.event {
+            MissionEvent::ActionStarted { action, .. } => Some(action),
+            _ => None,
+        })
+        .collect()
+}
+
+/// What the condition tests check when Follow is stuck on Lead: Follow
+/// says so once, with its policy, the ground station reports it, Follow
+/// landed where it waited and took no branch on Lead's frozen telemetry.
+fn check_stuck_on_a_condition(run: &Run) {
+    assert_eq!(
+        run.stuck("Follow"),
+        vec![(vec!["Lead".to_string()], "land".to_string())]
+    );
+    assert!(
+        matches!(run.outcome("Follow"), Outcome::PeerLost { lost, .. } if lost == &["Lead"]),
+        "{:?}",
+        run.outcome("Follow")
+    );
+    assert!(
+        run.log("GCS").iter().any(|r| r.event
+            == MissionEvent::PeerStuck {
+                peer: "Follow".into(),
+                lost: "Lead".into(),
+                policy: "land".into(),
+            }),
+        "the ground station reports Follow stuck on Lead"
+    );
+    assert_eq!(run.failsafes("Follow"), vec![("land".to_string(), true)]);
+    assert_eq!(
+        actions_started(run, "Follow"),
+        ["Arm", "Takeoff", "FlyByY"],
+        "Follow took no branch"
+    );
+    let home = run.report.trajectories["Follow"][0];
+    let end = run.last_position("Follow");
+    assert!(end.z < 0.2, "Follow landed: {end}");
+    assert!(
+        (end - (home + Vec3::new(0.0, 5.0, 0.0))).horizontal_norm() < 0.5,
+        "Follow landed where it waited: {end}, home {home}"
+    );
+    let free = run
+        .report
+        .reports
+        .iter()
+        .find(|r| r.drone == "Free")
+        .unwrap();
+    assert_eq!(free.actions, 4, "Free carries on untouched");
+}
+
+const LAND_AFTER_2S: &str = "[drones.Follow]\non_lost = \"land\"\ngrace = 2\n";
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_waiting_on_a_condition_over_a_lost_drone_follows_its_policy() {
+    let run = fly_mission_and_cut_lead(
+        watching("WaitUntil(Lead.X() > 90, SEQ_Near)"),
+        LAND_AFTER_2S,
+        Heal::Never,
+    )
+    .await;
+    check_stuck_on_a_condition(&run);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_deciding_a_condition_over_its_own_and_a_lost_drones_telemetry_follows_its_policy()
+{
+    // Declared before Lead, Follow decides the condition itself: it holds
+    // the token and waits for telemetry that only Lead would send.
+    let mission = watching_declared(
+        ["Free", "Follow", "Lead"],
+        "WaitUntil(Follow.Z() > 1 && Lead.X() > 90, SEQ_Near)",
+    );
+    let follow = mission.0.get("Follow").unwrap();
+    assert!(
+        follow
+            .transitions
+            .iter()
+            .any(|t| t.transition.guard.is_some()),
+        "Follow decides the condition"
+    );
+    let run = fly_mission_and_cut_lead(mission, LAND_AFTER_2S, Heal::Never).await;
+    check_stuck_on_a_condition(&run);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_branch_over_a_lost_drone_is_not_decided_on_its_frozen_telemetry_and_the_drone_follows_its_policy(
+) {
+    // Lead's last telemetry says it is near home: taken as an answer, it
+    // would send Follow down SEQ_Near.
+    let run = fly_mission_and_cut_lead(
+        watching("If(Lead.X() < 50, SEQ_Near, SEQ_Far)"),
+        LAND_AFTER_2S,
+        Heal::Never,
+    )
+    .await;
+    check_stuck_on_a_condition(&run);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_condition_that_a_drone_still_up_may_answer_is_not_stuck_on_a_lost_drone_it_also_reads() {
+    // Free lands at the end of its 40 s hover, long after Lead was lost for
+    // the grace period; Follow waits for that, not for Lead.
+    let run = fly_mission_and_cut_lead(
+        watching("WaitUntil(Free.Z() < 1 || Lead.X() > 90, SEQ_Far)"),
+        LAND_AFTER_2S,
+        Heal::Never,
+    )
+    .await;
+    assert!(run.stuck("Follow").is_empty(), "{:?}", run.stuck("Follow"));
+    assert_eq!(
+        actions_started(&run, "Follow"),
+        ["Arm", "Takeoff", "FlyByY", "Land"]
+    );
+    assert!(run
+        .failsafes("Follow")
+        .iter()
+        .all(|(_, airborne)| !airborne));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_condition_over_a_drones_own_telemetry_is_not_stuck_on_a_lost_peer() {
+    // Follow never climbs to 100 m: it waits on itself, to the time limit,
+    // and Lead being lost changes nothing about that.
+    let run = fly_mission_and_cut_lead(
+        watching("WaitUntil(Follow.Z() > 100, SEQ_Far)"),
+        LAND_AFTER_2S,
+        Heal::Never,
+    )
+    .await;
+    assert!(run.stuck("Follow").is_empty(), "{:?}", run.stuck("Follow"));
+    assert!(
+        matches!(run.outcome("Follow"), Outcome::TimeLimit { .. }),
+        "{:?}",
+        run.outcome("Follow")
+    );
+    assert_eq!(
+        actions_started(&run, "Follow"),
+        ["Arm", "Takeoff", "FlyByY"]
+    );
 }

@@ -13,6 +13,7 @@ use eamos_petri::net::Colour;
 
 use super::{Executor, Outcome, ProgressKind, ABORT};
 use crate::abort;
+use crate::guard::EvalError;
 use crate::liveness::{self, Change, OnLost, Watch};
 use crate::log::MissionEvent;
 use crate::transport::{PeerId, GCS};
@@ -29,6 +30,9 @@ pub(super) struct State {
     stuck_on: BTreeSet<PeerId>,
     /// The failsafe ran: it never runs twice in one run, whatever ends it.
     failsafe_done: bool,
+    /// Bridges into this slice that have delivered a token in this run (or
+    /// before a crash, by the journal).
+    pub(super) delivered: BTreeSet<u32>,
 }
 
 /// The next presence set, or `None` once the link stops telling.
@@ -62,10 +66,16 @@ impl Executor {
         for change in self.alive.watch.update(&me, &up, now) {
             match change {
                 Change::Lost(peer) => {
+                    if let Some(i) = self.world.index(&peer) {
+                        self.world.set_lost(i, true);
+                    }
                     self.note(MissionEvent::PeerLost { peer: peer.clone() });
                     self.alert(format!("lost {peer}"));
                 }
                 Change::Back(peer) => {
+                    if let Some(i) = self.world.index(&peer) {
+                        self.world.set_lost(i, false);
+                    }
                     self.alive.stuck_on.remove(&peer);
                     self.note(MissionEvent::PeerBack { peer: peer.clone() });
                     self.alert(format!("{peer} is back"));
@@ -104,6 +114,13 @@ impl Executor {
             .intersection(&lost)
             .cloned()
             .collect();
+        on.extend(self.conditions_wait_on(&lost));
+        on.extend(liveness::waits_for_handover(
+            &self.slice,
+            &self.marking,
+            &self.alive.delivered,
+            &lost,
+        ));
         let mut others = self.options.peers.iter().filter(|p| **p != me).peekable();
         let isolated = others.peek().is_some() && others.all(|p| lost.contains(p));
         if isolated && self.drone.is_none() {
@@ -164,6 +181,43 @@ impl Executor {
                 });
             }
         }
+    }
+
+    /// The lost peers whose telemetry a condition of this slice waits for
+    /// and only they could send: a transition that has all its tokens and
+    /// whose condition has no answer because it reads a lost drone (its
+    /// frozen last telemetry is no answer, see [`crate::guard`]), and that
+    /// reads no drone but this one and drones lost for the grace period. A
+    /// condition that also reads a drone still up is not stuck: that drone
+    /// may yet answer it.
+    fn conditions_wait_on(&self, lost: &BTreeSet<PeerId>) -> BTreeSet<PeerId> {
+        let mut out = BTreeSet::new();
+        for (t, st) in self.slice.transitions.iter().enumerate() {
+            let Some(g) = &st.transition.guard else {
+                continue;
+            };
+            let Some((cond, _)) = g.condition() else {
+                continue;
+            };
+            let Some(colour) = self.token_enabled(t as u32) else {
+                continue;
+            };
+            if g.holds_on_colour(&colour).is_some()
+                || !matches!(self.world.holds(cond), Err(EvalError::Lost(_)))
+            {
+                continue;
+            }
+            let read: BTreeSet<PeerId> = cond
+                .drones()
+                .iter()
+                .filter(|d| Some(d.0) != self.own_index)
+                .filter_map(|d| self.slice.drones.get(d.0 as usize).cloned())
+                .collect();
+            if !read.is_empty() && read.is_subset(lost) {
+                out.extend(read);
+            }
+        }
+        out
     }
 
     /// Tells every other peer (but `except`) to abort, with `colour` (empty
