@@ -200,3 +200,114 @@ impl Concurrency {
         &self.unsafe_pairs
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ptnet::{PlaceInfo, RawTransition, StepInfo};
+    use proptest::prelude::*;
+    use std::collections::{HashSet, VecDeque};
+
+    fn net(places: usize, initial: &[bool], ts: &[(Vec<u32>, Vec<u32>, Vec<u32>)]) -> PtNet {
+        let place = |i: usize| PlaceInfo {
+            id: format!("p{i}"),
+            label: String::new(),
+            span: None,
+            event: None,
+            is_final: false,
+            auxiliary: false,
+            synthetic: false,
+        };
+        let step = |i: usize| StepInfo {
+            id: format!("t{i}"),
+            label: String::new(),
+            kind: String::new(),
+            text: String::new(),
+            internal: false,
+            span: None,
+            guard: None,
+        };
+        let arcs = |v: &[u32]| v.iter().map(|&p| (p, 1)).collect::<Vec<_>>();
+        PtNet::new(
+            (0..places).map(place).collect(),
+            (0..ts.len()).map(step).collect(),
+            ts.iter()
+                .map(|(pre, read, post)| RawTransition {
+                    pre: arcs(pre),
+                    read: arcs(read),
+                    post: arcs(post),
+                })
+                .collect(),
+            initial.iter().map(|&m| m as u32).collect(),
+            None,
+        )
+    }
+
+    /// Every marking reachable without ever putting a second token in a
+    /// place (the relation speaks of 1-safe nets; runs past a second token
+    /// are cut there, which only shrinks what must be covered).
+    fn safe_markings(net: &PtNet) -> Vec<Vec<bool>> {
+        let m0: Vec<bool> = net.initial.iter().map(|&c| c > 0).collect();
+        let mut seen = HashSet::from([m0.clone()]);
+        let mut queue = VecDeque::from([m0]);
+        let mut out = Vec::new();
+        while let Some(m) = queue.pop_front() {
+            for t in 0..net.n_real {
+                let enabled = net
+                    .pre
+                    .get(t)
+                    .iter()
+                    .chain(net.read.get(t))
+                    .all(|&(p, _)| m[p as usize]);
+                if !enabled {
+                    continue;
+                }
+                let mut next = m.clone();
+                for &(p, _) in net.pre.get(t) {
+                    next[p as usize] = false;
+                }
+                if net.post.get(t).iter().any(|&(p, _)| next[p as usize]) {
+                    continue;
+                }
+                for &(p, _) in net.post.get(t) {
+                    next[p as usize] = true;
+                }
+                if seen.insert(next.clone()) {
+                    queue.push_back(next);
+                }
+            }
+            out.push(m);
+        }
+        out
+    }
+
+    fn random() -> impl Strategy<Value = (usize, Vec<bool>, Vec<(Vec<u32>, Vec<u32>, Vec<u32>)>)> {
+        (2usize..8).prop_flat_map(|n| {
+            let places = || proptest::collection::vec(0..n as u32, 0..3);
+            (
+                Just(n),
+                proptest::collection::vec(proptest::bool::weighted(0.3), n),
+                proptest::collection::vec((places(), places(), places()), 1..8),
+            )
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        #[test]
+        fn every_pair_of_places_marked_together_is_in_the_relation((n, initial, ts) in random()) {
+            let net = net(n, &initial, &ts);
+            let c = Concurrency::compute(&net);
+            for m in safe_markings(&net) {
+                for p in 0..n as u32 {
+                    for q in 0..n as u32 {
+                        if p != q && m[p as usize] && m[q as usize] {
+                            prop_assert!(c.get(p, q), "{p} and {q} marked together in {m:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
