@@ -334,6 +334,17 @@ impl Executor {
         self.actions_cancelled = r.actions_cancelled;
         self.sent = r.sent;
         self.received = r.received;
+        let (simulated, now, wall) = (
+            self.clock.is_simulated(),
+            self.now(),
+            journal::Paused::wall_now_ms(),
+        );
+        for p in &r.paused {
+            if let Some(t) = self.slice.transition_by_id(&p.transition) {
+                let began = journal::pause_began(p, simulated, now, wall);
+                self.enabled_since.insert((t, p.colour.clone()), began);
+            }
+        }
         self.alive.delivered = r
             .delivered
             .iter()
@@ -702,7 +713,25 @@ impl Executor {
             }
         }
         if let Some(delay) = delay {
-            let since = *self.enabled_since.entry((t, colour.clone())).or_insert(now);
+            let key = (t, colour.clone());
+            let since = match self.enabled_since.get(&key) {
+                Some(since) => *since,
+                None => {
+                    self.enabled_since.insert(key, now);
+                    // Journaled as it begins, so that a restart waits only
+                    // for what is left of it.
+                    let paused = Record::Paused(journal::Paused {
+                        transition: self.slice.transitions[t as usize].transition.id.clone(),
+                        colour: colour.clone(),
+                        time: now,
+                        wall_ms: journal::Paused::wall_now_ms(),
+                    });
+                    if !self.journal(paused, false) {
+                        return false;
+                    }
+                    now
+                }
+            };
             if now < since + delay {
                 return false;
             }

@@ -15,7 +15,10 @@
 //!   acknowledged are sent again with their original sequence numbers;
 //! - every action started, with the absolute target of a motion computed
 //!   from where the drone was when it started, flushed **before** the
-//!   adapter is asked to start it; and every action's end.
+//!   adapter is asked to start it; and every action's end;
+//! - when each pause (`PauseFor`) began counting, in mission time and wall
+//!   time: after a restart it waits only for what was left (see
+//!   [`Recovered::paused`]).
 //!
 //! # Format
 //! An append-only file of records, each framed as a little-endian `u32`
@@ -25,6 +28,13 @@
 //! the agent resumes from the records before it. A damaged record followed
 //! by good ones is not a torn write but a damaged disk: the journal is
 //! refused with the offset of the damage, never guessed around.
+//!
+//! The first record names the mission, the peer and the format
+//! ([`FORMAT`]). A journal of a later format is refused with the format it
+//! has, never half read; one of format 1 (whose header, `Opened`, has no
+//! format number, and which holds no pause) is read as it was written.
+//! An eamos of format 1 cannot read a later journal: it refuses it as
+//! damaged at byte 0.
 //!
 //! # Resuming an action that was running at the crash
 //! See [`resume_action`]: a motion flies on to the target recorded when it
@@ -87,6 +97,43 @@ pub enum Record {
     },
     /// The agent was restarted from this journal at this mission time.
     Resumed { time: f64 },
+    /// A timed transition (a `PauseFor`) began counting.
+    Paused(Paused),
+    /// The first record from format 2 on: [`Record::Opened`] with the
+    /// journal's format, so that a later format is refused by name.
+    Header {
+        format: u32,
+        mission_id: String,
+        peer: PeerId,
+    },
+}
+
+/// The format of the journals this version writes: 2 added
+/// [`Record::Paused`] and [`Record::Header`].
+pub const FORMAT: u32 = 2;
+
+/// A pause began counting: when, by the mission clock and by the wall
+/// clock, so that a restart can tell how much of it has passed whichever
+/// clock the mission runs on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Paused {
+    /// The timed transition (by its stable id) and its binding colour.
+    pub transition: String,
+    pub colour: Colour,
+    /// Mission time at which it became enabled.
+    pub time: f64,
+    /// Wall time at which it became enabled, in milliseconds since the
+    /// Unix epoch.
+    pub wall_ms: u64,
+}
+
+impl Paused {
+    /// The wall clock now, as [`Paused::wall_ms`] counts it.
+    pub fn wall_now_ms() -> u64 {
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_millis() as u64)
+    }
 }
 
 /// A message sent over a bridge (or an `end`/`abort` notice).
@@ -132,6 +179,8 @@ pub enum JournalError {
     },
     #[error("the journal {path} does not fit this peer's slice: {reason}")]
     Mismatch { path: String, reason: String },
+    #[error("the journal {path} is in format {found}, which this eamos cannot read (it reads formats 1 to {FORMAT}): resume with the eamos that wrote it, or move the file away to start afresh")]
+    Format { path: String, found: u32 },
 }
 
 /// Bytes of a record's frame before its payload: length and checksum.
@@ -287,12 +336,34 @@ impl Journal {
         let read = decode(&name, &bytes)?;
         let expected = format!("mission {mission_id}, peer {peer}");
         let mut records = read.records.into_iter();
-        let fresh = match records.next() {
-            None => true,
+        let header = match records.next() {
+            None => None,
             Some(Record::Opened {
                 mission_id: m,
                 peer: p,
-            }) => {
+            }) => Some((1, m, p)),
+            Some(Record::Header {
+                format,
+                mission_id: m,
+                peer: p,
+            }) => Some((format, m, p)),
+            Some(other) => {
+                return Err(JournalError::Damaged {
+                    path: name,
+                    offset: 0,
+                    reason: format!("it starts with {other:?} instead of its header"),
+                })
+            }
+        };
+        let fresh = match header {
+            None => true,
+            Some((format, _, _)) if format > FORMAT => {
+                return Err(JournalError::Format {
+                    path: name,
+                    found: format,
+                });
+            }
+            Some((_, m, p)) => {
                 if m != mission_id || p != peer {
                     return Err(JournalError::Foreign {
                         path: name,
@@ -301,13 +372,6 @@ impl Journal {
                     });
                 }
                 false
-            }
-            Some(other) => {
-                return Err(JournalError::Damaged {
-                    path: name,
-                    offset: 0,
-                    reason: format!("it starts with {other:?} instead of its header"),
-                })
             }
         };
         if read.torn > 0 {
@@ -326,7 +390,8 @@ impl Journal {
         };
         if fresh {
             journal.append(
-                &Record::Opened {
+                &Record::Header {
+                    format: FORMAT,
                     mission_id: mission_id.to_string(),
                     peer: peer.to_string(),
                 },
@@ -470,6 +535,9 @@ pub struct Recovered {
     /// Mission time of the last `Started` record, for a simulator whose
     /// clock restarts.
     pub last_time: f64,
+    /// Pauses that had begun counting and whose transition had not fired
+    /// at the crash: the executor resumes each with what was left of it.
+    pub paused: Vec<Paused>,
 }
 
 impl Recovered {
@@ -509,10 +577,22 @@ pub fn replay(slice: &Slice, path: &str, records: &[Record]) -> Result<Recovered
     let mut running: Vec<Interrupted> = Vec::new();
     // Started and not yet ended or cancelled in the net.
     let mut open: HashSet<(u32, Colour)> = HashSet::new();
+    // Pauses counting and not yet over.
+    let mut paused: Vec<Paused> = Vec::new();
     for record in records {
         match record {
-            Record::Opened { .. } => {
+            Record::Opened { .. } | Record::Header { .. } => {
                 return Err(mismatch("a second header in the middle".to_string()));
+            }
+            Record::Paused(p) => {
+                if slice.transition_by_id(&p.transition).is_none() {
+                    return Err(mismatch(format!(
+                        "it paused on transition {}, which is not in this slice",
+                        p.transition
+                    )));
+                }
+                paused.retain(|q| (&q.transition, &q.colour) != (&p.transition, &p.colour));
+                paused.push(p.clone());
             }
             Record::Resumed { .. } => {}
             Record::Consumed {
@@ -545,6 +625,7 @@ pub fn replay(slice: &Slice, path: &str, records: &[Record]) -> Result<Recovered
                 }
             }
             Record::Fired { transition, colour } => {
+                paused.retain(|q| (&q.transition, &q.colour) != (transition, colour));
                 let Some(t) = slice.transition_by_id(transition) else {
                     return Err(mismatch(format!(
                         "it fired transition {transition}, which is not in this slice"
@@ -659,6 +740,7 @@ pub fn replay(slice: &Slice, path: &str, records: &[Record]) -> Result<Recovered
         .filter(|k| !sent_keys.contains(k))
         .collect();
     r.interrupted = running;
+    r.paused = paused;
     Ok(r)
 }
 
@@ -687,6 +769,21 @@ pub async fn resume_action(
         }
         _ => drone.run(call, cancel).await,
     }
+}
+
+/// When a pause journaled as `p` began, on the clock of a restarted agent
+/// whose mission clock reads `now`: a simulated clock goes on from the
+/// recorded airframes' time (nothing flew while the agent was down), so
+/// the pause's mission time stands; a wall clock restarts with the agent
+/// while the world went on, so what passed is told by the wall clock.
+/// Never later than `now`: a pause does not grow by a restart.
+pub fn pause_began(p: &Paused, simulated: bool, now: f64, wall_now_ms: u64) -> f64 {
+    let began = if simulated {
+        p.time
+    } else {
+        now - wall_now_ms.saturating_sub(p.wall_ms) as f64 / 1000.0
+    };
+    began.min(now)
 }
 
 #[cfg(test)]

@@ -73,7 +73,8 @@ fn a_journal_cut_anywhere_reads_as_the_records_before_the_cut_and_never_panics()
     let dir = tempfile::tempdir().unwrap();
     let path = journal_with(dir.path(), &some_records());
     let bytes = std::fs::read(&path).unwrap();
-    let header = encode(&Record::Opened {
+    let header = encode(&Record::Header {
+        format: FORMAT,
         mission_id: "M-1".into(),
         peer: "D1".into(),
     })
@@ -140,7 +141,8 @@ fn a_damaged_record_followed_by_intact_ones_is_refused_with_its_offset() {
     let dir = tempfile::tempdir().unwrap();
     let path = journal_with(dir.path(), &some_records());
     let mut bytes = std::fs::read(&path).unwrap();
-    let header = encode(&Record::Opened {
+    let header = encode(&Record::Header {
+        format: FORMAT,
         mission_id: "M-1".into(),
         peer: "D1".into(),
     })
@@ -166,7 +168,8 @@ fn a_damaged_length_followed_by_intact_records_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let path = journal_with(dir.path(), &some_records());
     let mut bytes = std::fs::read(&path).unwrap();
-    let header = encode(&Record::Opened {
+    let header = encode(&Record::Header {
+        format: FORMAT,
         mission_id: "M-1".into(),
         peer: "D1".into(),
     })
@@ -518,4 +521,245 @@ async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_r
         .collect();
     assert_eq!(before, after);
     assert!(before.iter().sum::<usize>() > 0);
+}
+
+// Pauses, and the journal's format.
+
+const PAUSING: &str = "package Pausing
+
+var D1 Quadcopter
+
+func SEQ_Mission() {
+	D1.Arm()
+	D1.Takeoff(2)
+	PauseFor(60)
+	D1.Land()
+}
+";
+
+fn pausing() -> eamos_slicer::Slices {
+    let file = eamos_lang::SourceFile::new("pausing.go", PAUSING);
+    let profiles = eamos_mid::profiles::builtin();
+    let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
+    eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
+}
+
+fn pause_transition(slice: &Slice) -> String {
+    slice
+        .transitions
+        .iter()
+        .find(|t| t.transition.delay.is_some())
+        .map(|t| t.transition.id.clone())
+        .unwrap()
+}
+
+fn paused(transition: &str, time: f64) -> Record {
+    Record::Paused(Paused {
+        transition: transition.into(),
+        colour: vec![],
+        time,
+        wall_ms: 1_000_000,
+    })
+}
+
+#[test]
+fn a_pause_begun_before_the_crash_is_recovered_until_its_transition_fires() {
+    let s = pausing();
+    let slice = s.get("D1").unwrap();
+    let pause = pause_transition(slice);
+    let r = replay(slice, "j", &[paused(&pause, 12.5)]).unwrap();
+    assert_eq!(
+        r.paused,
+        vec![Paused {
+            transition: pause.clone(),
+            colour: vec![],
+            time: 12.5,
+            wall_ms: 1_000_000,
+        }]
+    );
+    let fired = Record::Fired {
+        transition: pause.clone(),
+        colour: vec![],
+    };
+    let r = replay(slice, "j", &[paused(&pause, 12.5), fired]).unwrap();
+    assert!(r.paused.is_empty(), "{:?}", r.paused);
+    let err = replay(slice, "j", &[paused("t999", 1.0)]).err().unwrap();
+    assert!(err.to_string().contains("t999"), "{err}");
+}
+
+#[test]
+fn a_resumed_pause_keeps_its_mission_time_on_a_simulated_clock_and_counts_the_wall_clock_otherwise()
+{
+    let p = Paused {
+        transition: "t1".into(),
+        colour: vec![],
+        time: 40.0,
+        wall_ms: 1_000_000,
+    };
+    // The simulation went on from the recorded airframes' time.
+    assert_eq!(pause_began(&p, true, 55.0, 9_999_999), 40.0);
+    // A wall clock restarted at 0 with the agent; 25 s passed in the world.
+    assert_eq!(pause_began(&p, false, 2.0, 1_025_000), -23.0);
+    // Neither clock makes a pause begin after the restart.
+    assert_eq!(pause_began(&p, true, 30.0, 0), 30.0);
+    assert_eq!(pause_began(&p, false, 2.0, 999_000), 2.0);
+}
+
+#[test]
+fn a_new_journal_names_its_format_and_a_later_format_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = journal_with(dir.path(), &[]);
+    let bytes = std::fs::read(&path).unwrap();
+    let first = decode("j", &bytes).unwrap().records;
+    assert_eq!(
+        first,
+        vec![Record::Header {
+            format: FORMAT,
+            mission_id: "M-1".into(),
+            peer: "D1".into(),
+        }]
+    );
+    let later = dir.path().join("later.journal");
+    std::fs::write(
+        &later,
+        encode(&Record::Header {
+            format: FORMAT + 1,
+            mission_id: "M-1".into(),
+            peer: "D1".into(),
+        }),
+    )
+    .unwrap();
+    let err = Journal::open(&later, "M-1", "D1").err().unwrap();
+    assert!(matches!(err, JournalError::Format { found, .. } if found == FORMAT + 1));
+    assert!(err.to_string().contains("later.journal"), "{err}");
+    assert!(
+        err.to_string().contains(&format!("format {}", FORMAT + 1)),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_journal_of_format_1_without_a_format_number_is_read_as_it_was_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("D1.journal");
+    let mut bytes = encode(&Record::Opened {
+        mission_id: "M-1".into(),
+        peer: "D1".into(),
+    });
+    for r in some_records() {
+        bytes.extend(encode(&r));
+    }
+    std::fs::write(&path, bytes).unwrap();
+    let opened = Journal::open(&path, "M-1", "D1").unwrap();
+    assert_eq!(opened.records, some_records());
+    assert!(matches!(
+        Journal::open(&path, "M-2", "D1"),
+        Err(JournalError::Foreign { .. })
+    ));
+}
+
+/// When `event` (the first match) happened in D1's mission log.
+fn logged_at(dir: &Path, what: impl Fn(&crate::log::MissionEvent) -> bool) -> Option<f64> {
+    crate::log::read_mission_log(&dir.join("logs").join("D1.mission.jsonl"))
+        .unwrap()
+        .into_iter()
+        .find(|r| what(&r.event))
+        .map(|r| r.time)
+}
+
+#[test]
+fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_rest_of_the_pause() {
+    use crate::log::MissionEvent;
+    use crate::runner::{run_fleet, RunOptions};
+
+    let dir = tempfile::tempdir().unwrap();
+    let options = RunOptions {
+        speed: 20.0,
+        ..run_options(dir.path())
+    };
+    let s = pausing();
+
+    // First flight, killed like `kill -9` a while into the pause: its
+    // runtime is torn down with every task in it, nothing runs to its end.
+    let first = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    let (progress, mut watch) = tokio::sync::mpsc::unbounded_channel();
+    {
+        let (s, options) = (
+            s.clone(),
+            RunOptions {
+                progress: Some(progress),
+                ..options.clone()
+            },
+        );
+        first.spawn(async move {
+            let profiles = eamos_mid::profiles::builtin();
+            let _ = run_fleet(&s, &crate::fleet::Fleet::default(), &profiles, &options).await;
+        });
+    }
+    loop {
+        let p = watch.blocking_recv().expect("the first flight reports");
+        if matches!(&p.what, crate::executor::ProgressKind::ActionFinished(a) if a.starts_with("Takeoff"))
+        {
+            break;
+        }
+    }
+    // 1 s of wall time is 20 s into the 60 s pause.
+    std::thread::sleep(std::time::Duration::from_secs(1));
+    first.shutdown_timeout(std::time::Duration::from_secs(5));
+    let began = logged_at(dir.path(), |e| {
+        matches!(e, MissionEvent::ActionFinished { action, .. } if action.starts_with("Takeoff"))
+    })
+    .unwrap();
+    assert!(
+        logged_at(
+            dir.path(),
+            |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause")
+        )
+        .is_none(),
+        "the first flight was killed before its pause was over"
+    );
+
+    // Started again from its journal.
+    let again = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap();
+    let report = again
+        .block_on(run_fleet(
+            &s,
+            &crate::fleet::Fleet::default(),
+            &eamos_mid::profiles::builtin(),
+            &options,
+        ))
+        .unwrap();
+    assert!(report
+        .reports
+        .iter()
+        .all(|r| r.outcome == crate::Outcome::Completed));
+    let resumed = logged_at(dir.path(), |e| matches!(e, MissionEvent::Resumed { .. })).unwrap();
+    let over = logged_at(
+        dir.path(),
+        |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause"),
+    )
+    .unwrap();
+    assert!(
+        resumed > began + 5.0,
+        "killed well into the pause: began {began}, resumed {resumed}"
+    );
+    // Over 60 s after it began, not 60 s after the restart; the slack is
+    // the simulator's: it goes on from its last recorded airframe.
+    assert!(
+        over >= began + 59.5 && over < resumed + 55.0,
+        "the pause began at {began}, the agent resumed at {resumed}, the pause ended at {over}"
+    );
+    assert_eq!(
+        action_starts(dir.path(), "D1"),
+        3,
+        "Arm, Takeoff, Land once each"
+    );
 }
