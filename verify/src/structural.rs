@@ -208,7 +208,10 @@ mod tests {
     use proptest::prelude::*;
     use std::collections::{HashSet, VecDeque};
 
-    fn net(places: usize, initial: &[bool], ts: &[(Vec<u32>, Vec<u32>, Vec<u32>)]) -> PtNet {
+    /// Consumed, read and produced places of one transition.
+    type Arcs = (Vec<u32>, Vec<u32>, Vec<u32>);
+
+    fn net(places: usize, initial: &[bool], ts: &[Arcs]) -> PtNet {
         let place = |i: usize| PlaceInfo {
             id: format!("p{i}"),
             label: String::new(),
@@ -281,7 +284,7 @@ mod tests {
         out
     }
 
-    fn random() -> impl Strategy<Value = (usize, Vec<bool>, Vec<(Vec<u32>, Vec<u32>, Vec<u32>)>)> {
+    fn random() -> impl Strategy<Value = (usize, Vec<bool>, Vec<Arcs>)> {
         (2usize..8).prop_flat_map(|n| {
             let places = || proptest::collection::vec(0..n as u32, 0..3);
             (
