@@ -362,16 +362,20 @@ fn run_probe(probe: &[String]) -> ExitCode {
     };
     match result {
         Ok(said) => {
-            match own_peak_kib() {
-                Some(kib) => println!("ready {kib}"),
-                None => println!("ready"),
-            }
-            if !said.is_empty() {
-                println!("{said}");
-            }
-            let _ = std::io::stdout().flush();
+            let mut out = std::io::stdout().lock();
+            let peak = own_peak_kib().map_or(String::new(), |kib| format!(" {kib}"));
+            // A reader that went away is the report's business, not a panic.
+            let written = writeln!(out, "ready{peak}")
+                .and_then(|()| {
+                    if said.is_empty() {
+                        Ok(())
+                    } else {
+                        writeln!(out, "{said}")
+                    }
+                })
+                .and_then(|()| out.flush());
             // What happens after "ready" is not part of the measurement.
-            std::process::exit(0)
+            std::process::exit(if written.is_ok() { 0 } else { 2 })
         }
         Err(e) => {
             eprintln!("error: {e}");
