@@ -365,15 +365,13 @@ fn run_probe(probe: &[String]) -> ExitCode {
             let mut out = std::io::stdout().lock();
             let peak = own_peak_kib().map_or(String::new(), |kib| format!(" {kib}"));
             // A reader that went away is the report's business, not a panic.
-            let written = writeln!(out, "ready{peak}")
-                .and_then(|()| {
-                    if said.is_empty() {
-                        Ok(())
-                    } else {
-                        writeln!(out, "{said}")
-                    }
-                })
-                .and_then(|()| out.flush());
+            let written = (|| {
+                writeln!(out, "ready{peak}")?;
+                if !said.is_empty() {
+                    writeln!(out, "{said}")?;
+                }
+                out.flush()
+            })();
             // What happens after "ready" is not part of the measurement.
             std::process::exit(if written.is_ok() { 0 } else { 2 })
         }
@@ -876,6 +874,13 @@ mod tests {
         assert!((growth_exponent(&linear).unwrap() - 1.0).abs() < 1e-9);
         assert!((growth_exponent(&quadratic).unwrap() - 2.0).abs() < 1e-9);
         assert_eq!(growth_exponent(&linear[..1]), None);
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn a_probe_reads_its_own_peak_memory() {
+        let kib = own_peak_kib().expect("Linux gives every process its VmHWM");
+        assert!(kib > 0);
     }
 
     #[test]

@@ -13,9 +13,10 @@
 //! The one exploration serves every property: the terminal-component
 //! proviso costs little on mission nets (a full expansion here and there
 //! once the reduced graph is built) and makes the reduced graph preserve
-//! fireability and the reachability of the end (see [`crate::explore`]). A net that turns out not
-//! to be 1-safe (PNML input, or a compiler bug) is explored again in full
-//! with token counters, which also decides boundedness.
+//! fireability and the reachability of the end (see [`crate::explore`]). A
+//! net that turns out not to be 1-safe (PNML input, or a compiler bug) is
+//! explored again in full with token counters, which also decides
+//! boundedness.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;

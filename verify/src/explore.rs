@@ -298,8 +298,6 @@ pub(crate) struct Exploration {
     /// proviso looks for components without one).
     pub fully: Vec<bool>,
     pub full_expansions: usize,
-    /// How many times the proviso sent the exploration back.
-    pub proviso_rounds: usize,
     pub edge_count: u64,
     pub max_tokens: u32,
     pub seconds: f64,
@@ -597,7 +595,6 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
         expanded: 0,
         fully: Vec::new(),
         full_expansions: 0,
-        proviso_rounds: 0,
         edge_count: 0,
         max_tokens: 0,
         seconds: 0.0,
@@ -663,7 +660,6 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
         if ignoring.is_empty() {
             break;
         }
-        ex.proviso_rounds += 1;
         let mut s = Scratch::new(n_all, words);
         for id in ignoring {
             let r = expand::<E>(net, false, &mut s, ex.store.marking(id));
@@ -763,7 +759,9 @@ fn absorb<E: Encoding>(
 }
 
 /// One marking of each terminal strong component of the explored graph that
-/// holds no fully expanded marking, found with an iterative Tarjan.
+/// holds no fully expanded marking, found with an iterative Tarjan (written
+/// here because petgraph's `tarjan_scc` recurses once per state along a
+/// path, and reduced state spaces are paths hundreds of thousands long).
 fn unexpanded_terminal_components(ex: &Exploration, extra: &[(u32, u32, u32)]) -> Vec<u32> {
     let n = ex.store.len();
     // Successors: the CSR row, then the extra edges (sorted by source).
@@ -792,7 +790,9 @@ fn unexpanded_terminal_components(ex: &Exploration, extra: &[(u32, u32, u32)]) -
     let mut stack: Vec<u32> = Vec::new();
     let mut call: Vec<(u32, usize)> = Vec::new();
     let mut comp_of = vec![NONE; n];
-    let mut comps: Vec<Vec<u32>> = Vec::new();
+    let mut comps = 0u32;
+    let mut members: Vec<u32> = Vec::new();
+    let mut ignoring: Vec<u32> = Vec::new();
     let mut next = 0u32;
     for root in 0..n {
         if index[root] != NONE {
@@ -826,38 +826,31 @@ fn unexpanded_terminal_components(ex: &Exploration, extra: &[(u32, u32, u32)]) -
                 low[u as usize] = low[u as usize].min(low[vi]);
             }
             if low[vi] == index[vi] {
-                let c = comps.len() as u32;
-                let mut members = Vec::new();
+                members.clear();
                 loop {
                     let w = stack.pop().expect("Tarjan stack holds the component");
                     on_stack[w as usize] = false;
-                    comp_of[w as usize] = c;
+                    comp_of[w as usize] = comps;
                     members.push(w);
                     if w == v {
                         break;
                     }
                 }
-                comps.push(members);
+                // Components come out successors first: an edge leaving this
+                // one goes to a component already numbered.
+                let terminal = members.iter().all(|&m| {
+                    (0..)
+                        .map_while(|k| succ(m as usize, k))
+                        .all(|w| comp_of[w as usize] == comps)
+                });
+                if terminal && !members.iter().any(|&m| ex.fully[m as usize]) {
+                    ignoring.push(*members.iter().min().expect("components are not empty"));
+                }
+                comps += 1;
             }
         }
     }
-    comps
-        .iter()
-        .enumerate()
-        .filter(|(c, members)| {
-            members.iter().all(|&v| {
-                let mut k = 0;
-                while let Some(w) = succ(v as usize, k) {
-                    if comp_of[w as usize] != *c as u32 {
-                        return false;
-                    }
-                    k += 1;
-                }
-                true
-            }) && !members.iter().any(|&v| ex.fully[v as usize])
-        })
-        .map(|(_, members)| *members.iter().min().expect("components are not empty"))
-        .collect()
+    ignoring
 }
 
 /// Folds the proviso's extra edges into the CSR arrays, each after the
