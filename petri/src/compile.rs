@@ -164,6 +164,9 @@ pub fn compile(mission: &Mission, profiles: &ProfileTable) -> Net {
         signals: BTreeMap::new(),
     };
     c.mission();
+    // The node and arc vectors grew by doubling: up to half of them is
+    // spare room, megabytes on a stress mission, held while it is sliced.
+    c.net.graph.shrink_to_fit();
     c.net
 }
 

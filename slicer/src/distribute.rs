@@ -3,6 +3,8 @@
 
 use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
+use std::io::{BufWriter, Write as _};
 
 use eamos_lang::hir::DroneId;
 use eamos_petri::net::{
@@ -12,7 +14,7 @@ use petgraph::graph::DiGraph;
 use petgraph::visit::EdgeRef;
 use petgraph::Direction;
 use serde::{Deserialize, Serialize};
-use sha3::{Digest, Sha3_256};
+use sha2::{Digest, Sha256};
 
 use crate::end::End;
 use crate::error::SliceError;
@@ -55,10 +57,22 @@ pub(crate) fn owner_name(net: &Net, o: Owner) -> String {
 /// A hash of the mission's net: two slices belong to one mission exactly
 /// when their identities are equal.
 pub fn mission_id(net: &Net) -> String {
-    // The compact form: hashing costs what the bytes cost.
-    let bytes = postcard::to_allocvec(net).expect("a net always serialises");
-    let digest = Sha3_256::digest(&bytes);
-    digest.iter().map(|b| format!("{b:02x}")).collect()
+    // The compact form, streamed through a small buffer: a stress mission's
+    // net is megabytes of it, and field-sized writes into the hash cost more
+    // than the copy. SHA-256 rather than the SHA3 of the slice files: the
+    // ground station that compiles has it in hardware (x86 SHA extensions,
+    // ARMv8 crypto), and SHA3 in software was a tenth of a whole compile.
+    let mut hasher = Sha256::new();
+    let buffered = BufWriter::with_capacity(1 << 16, &mut hasher);
+    postcard::to_io(net, buffered)
+        .and_then(|mut w| w.flush().map_err(|_| postcard::Error::SerializeBufferFull))
+        .expect("a net always serialises into a hash");
+    let digest = hasher.finalize();
+    let mut id = String::with_capacity(2 * digest.len());
+    for b in digest {
+        let _ = write!(id, "{b:02x}");
+    }
+    id
 }
 
 /// Slices a mission net: one slice for the ground station and one per drone.
@@ -120,13 +134,17 @@ fn max_input_depth(net: &Net, t: NodeId) -> u8 {
 
 /// The net without the arcs that touch `region`.
 fn without(net: &Net, region: &[bool]) -> Net {
-    let graph = net.graph.filter_map(
-        |_, n| Some(n.clone()),
-        |e, a| {
-            let (s, t) = net.graph.edge_endpoints(e)?;
-            (!region[s.index()] && !region[t.index()]).then_some(*a)
-        },
-    );
+    // Sized up front (`filter_map` grows by doubling): this copy is alive
+    // for the whole of slicing, so its spare room would count at the peak.
+    let mut graph = DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
+    for v in net.graph.node_indices() {
+        graph.add_node(net.graph[v].clone());
+    }
+    for e in net.graph.edge_references() {
+        if !region[e.source().index()] && !region[e.target().index()] {
+            graph.add_edge(e.source(), e.target(), *e.weight());
+        }
+    }
     Net {
         name: net.name.clone(),
         graph,
@@ -142,8 +160,21 @@ fn without(net: &Net, region: &[bool]) -> Net {
 /// end tree (if any) becomes one end per owner joined by a transition that
 /// belongs to no one (see `end.rs`).
 fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&End>) -> Net {
-    let mut graph: DiGraph<Node, Arc> =
-        DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
+    // Sized for what the bundles and the end add (two nodes and at most
+    // one arc more per target each), so that the vectors never double.
+    let added: usize = bundles
+        .iter()
+        .map(|b| match b {
+            Bundle::Direct { .. } => 0,
+            Bundle::FanOut { arcs, .. } | Bundle::Forward { arcs, .. } => arcs.len(),
+            Bundle::PreJoin { places, .. } => places.len(),
+        })
+        .sum();
+    let ends = end.map_or(0, |e| e.inputs.len());
+    let mut graph: DiGraph<Node, Arc> = DiGraph::with_capacity(
+        net.graph.node_count() + 2 * bundles.len() + 2 * ends,
+        net.graph.edge_count() + 2 * bundles.len() + added + 3 * ends,
+    );
     // New index of every node of `net`; the end tree's inner nodes go.
     let mut map: Vec<Option<NodeId>> = vec![None; net.graph.node_count()];
     for v in net.graph.node_indices() {

@@ -479,6 +479,12 @@ struct Cost {
     /// Scratch: membership stamps for collecting anchors.
     stamp: Vec<u32>,
     epoch: u32,
+    /// Scratch: the owners one term counts. The search evaluates these terms
+    /// millions of times on a stress mission; a vector each time was a sixth
+    /// of the whole compile.
+    owners: Vec<Owner>,
+    /// Scratch: the pre-join groups of one join.
+    groups: Vec<(Owner, usize, u32)>,
 }
 
 /// The terms a move of some units can change.
@@ -573,19 +579,26 @@ impl Cost {
             prejoined: vec![false; n],
             stamp: vec![0; n],
             epoch: 0,
+            owners: Vec::new(),
+            groups: Vec::new(),
         }
     }
 
     /// Fan-outs of transition `t`.
-    fn fanouts(&self, t: u32) -> usize {
+    fn fanouts(&mut self, t: u32) -> usize {
+        let outs = self.outs.of(t);
+        // Most transitions have one output: no fan-out without two.
+        if outs.len() < 2 {
+            return 0;
+        }
         let me = self.owner[t as usize];
-        let mut remote: Vec<Owner> = self
-            .outs
-            .of(t)
-            .iter()
-            .map(|&p| self.owner[p as usize])
-            .filter(|&o| o != me)
-            .collect();
+        let remote = &mut self.owners;
+        remote.clear();
+        remote.extend(
+            outs.iter()
+                .map(|&p| self.owner[p as usize])
+                .filter(|&o| o != me),
+        );
         remote.sort_unstable();
         remote
             .chunk_by(|a, b| a == b)
@@ -626,15 +639,12 @@ impl Cost {
 
     /// Pre-joins of `join`; marks their places in `prejoined` when asked.
     fn prejoins(&mut self, join: u32, mark: bool) -> usize {
-        let mut groups: Vec<(Owner, usize, u32)> = self
-            .joinable
-            .of(join)
-            .iter()
-            .filter_map(|&p| {
-                self.prejoin_from(p, join)
-                    .map(|f| (f, self.ins.of(p).len(), p))
-            })
-            .collect();
+        let mut groups = std::mem::take(&mut self.groups);
+        groups.clear();
+        groups.extend(self.joinable.of(join).iter().filter_map(|&p| {
+            self.prejoin_from(p, join)
+                .map(|f| (f, self.ins.of(p).len(), p))
+        }));
         groups.sort_unstable();
         let mut count = 0;
         for g in groups.chunk_by(|a, b| a.0 == b.0) {
@@ -647,34 +657,46 @@ impl Cost {
                 }
             }
         }
+        self.groups = groups;
         count
     }
 
     /// Forwards and direct arcs into place `p`.
-    fn arrivals(&self, p: u32) -> usize {
+    fn arrivals(&mut self, p: u32) -> usize {
         if self.prejoined[p as usize] {
             return 0;
         }
         let here = self.owner[p as usize];
-        let mut remote: Vec<Owner> = self
-            .ins
-            .of(p)
-            .iter()
-            .filter(|&&s| self.owner[s as usize] != here && !self.covered(s, p))
-            .map(|&s| self.owner[s as usize])
-            .collect();
+        let ins = self.ins.of(p);
+        if let [s] = ins {
+            return usize::from(self.owner[*s as usize] != here && !self.covered(*s, p));
+        }
+        let mut remote = std::mem::take(&mut self.owners);
+        remote.clear();
+        remote.extend(
+            ins.iter()
+                .filter(|&&s| self.owner[s as usize] != here && !self.covered(s, p))
+                .map(|&s| self.owner[s as usize]),
+        );
         remote.sort_unstable();
         remote.dedup();
-        remote.len()
+        let n = remote.len();
+        self.owners = remote;
+        n
     }
 
     /// The sum of the terms named by `anchors`.
     fn local(&mut self, a: &Anchors) -> usize {
-        let mut total: usize = a.fanouts.iter().map(|&t| self.fanouts(t)).sum();
+        let mut total = 0;
+        for &t in &a.fanouts {
+            total += self.fanouts(t);
+        }
         for &j in &a.joins {
             total += self.prejoins(j, true);
         }
-        total += a.places.iter().map(|&p| self.arrivals(p)).sum::<usize>();
+        for &p in &a.places {
+            total += self.arrivals(p);
+        }
         for &j in &a.joins {
             for &p in self.joinable.of(j) {
                 self.prejoined[p as usize] = false;
