@@ -63,10 +63,10 @@ pub fn mission_id(net: &Net) -> String {
     // ground station that compiles has it in hardware (x86 SHA extensions,
     // ARMv8 crypto), and SHA3 in software was a tenth of a whole compile.
     let mut hasher = Sha256::new();
-    let buffered = BufWriter::with_capacity(1 << 16, &mut hasher);
-    postcard::to_io(net, buffered)
-        .and_then(|mut w| w.flush().map_err(|_| postcard::Error::SerializeBufferFull))
-        .expect("a net always serialises into a hash");
+    let mut buffered = BufWriter::with_capacity(1 << 16, &mut hasher);
+    postcard::to_io(net, &mut buffered).expect("a net always serialises");
+    buffered.flush().expect("a hash takes every byte");
+    drop(buffered);
     let digest = hasher.finalize();
     let mut id = String::with_capacity(2 * digest.len());
     for b in digest {
