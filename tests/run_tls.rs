@@ -122,7 +122,12 @@ fn spawn(fleet: &Path, out: &Path, role: &[&str], extra: &[&str]) -> Child {
         .arg(fleet)
         .arg("--out")
         .arg(out)
-        .args(["--speed", "50", "--max-duration", "600"])
+        // A drone counts its time limit from its own start, and waits there
+        // until every peer is connected: at 50x, a few seconds of process
+        // starts and connection retries on a loaded machine are minutes of
+        // mission time (600 s was once used up before the start token came);
+        // 6000 s is 120 s of wall clock, inside the 180 s this test waits.
+        .args(["--speed", "50", "--max-duration", "6000"])
         .args(extra)
         .stdout(Stdio::from(
             std::fs::File::create(out.join(format!("{tag}.out"))).unwrap(),
