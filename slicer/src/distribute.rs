@@ -3,7 +3,6 @@
 
 use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
-use std::fmt::Write as _;
 use std::io::{BufWriter, Write as _};
 
 use eamos_lang::hir::DroneId;
@@ -67,12 +66,11 @@ pub fn mission_id(net: &Net) -> String {
     postcard::to_io(net, &mut buffered).expect("a net always serialises");
     buffered.flush().expect("a hash takes every byte");
     drop(buffered);
-    let digest = hasher.finalize();
-    let mut id = String::with_capacity(2 * digest.len());
-    for b in digest {
-        let _ = write!(id, "{b:02x}");
-    }
-    id
+    hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Slices a mission net: one slice for the ground station and one per drone.
