@@ -446,14 +446,20 @@ fn check_stuck_on_a_condition(run: &Run) {
 
 const LAND_AFTER_2S: &str = "[drones.Follow]\non_lost = \"land\"\ngrace = 2\n";
 
+/// Flies a condition test's mission: Lead is cut for good, and Follow lands
+/// once it has been stuck on Lead for 2 s.
+async fn fly_watching_and_cut_lead(mission: (Slices, Arc<SourceFile>)) -> Run {
+    fly_mission_and_cut_lead(mission, LAND_AFTER_2S, Heal::Never).await
+}
+
+/// Follow never counted itself stuck on anyone.
+fn assert_follow_not_stuck(run: &Run) {
+    assert!(run.stuck("Follow").is_empty(), "{:?}", run.stuck("Follow"));
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_drone_waiting_on_a_condition_over_a_lost_drone_follows_its_policy() {
-    let run = fly_mission_and_cut_lead(
-        watching("WaitUntil(Lead.X() > 90, SEQ_Near)"),
-        LAND_AFTER_2S,
-        Heal::Never,
-    )
-    .await;
+    let run = fly_watching_and_cut_lead(watching("WaitUntil(Lead.X() > 90, SEQ_Near)")).await;
     check_stuck_on_a_condition(&run);
 }
 
@@ -474,7 +480,7 @@ async fn a_drone_deciding_a_condition_over_its_own_and_a_lost_drones_telemetry_f
             .any(|t| t.transition.guard.is_some()),
         "Follow decides the condition"
     );
-    let run = fly_mission_and_cut_lead(mission, LAND_AFTER_2S, Heal::Never).await;
+    let run = fly_watching_and_cut_lead(mission).await;
     check_stuck_on_a_condition(&run);
 }
 
@@ -483,12 +489,7 @@ async fn a_branch_over_a_lost_drone_is_not_decided_on_its_frozen_telemetry_and_t
 ) {
     // Lead's last telemetry says it is near home: taken as an answer, it
     // would send Follow down SEQ_Near.
-    let run = fly_mission_and_cut_lead(
-        watching("If(Lead.X() < 50, SEQ_Near, SEQ_Far)"),
-        LAND_AFTER_2S,
-        Heal::Never,
-    )
-    .await;
+    let run = fly_watching_and_cut_lead(watching("If(Lead.X() < 50, SEQ_Near, SEQ_Far)")).await;
     check_stuck_on_a_condition(&run);
 }
 
@@ -496,13 +497,11 @@ async fn a_branch_over_a_lost_drone_is_not_decided_on_its_frozen_telemetry_and_t
 async fn a_condition_that_a_drone_still_up_may_answer_is_not_stuck_on_a_lost_drone_it_also_reads() {
     // Free lands at the end of its 40 s hover, long after Lead was lost for
     // the grace period; Follow waits for that, not for Lead.
-    let run = fly_mission_and_cut_lead(
-        watching("WaitUntil(Free.Z() < 1 || Lead.X() > 90, SEQ_Far)"),
-        LAND_AFTER_2S,
-        Heal::Never,
-    )
+    let run = fly_watching_and_cut_lead(watching(
+        "WaitUntil(Free.Z() < 1 || Lead.X() > 90, SEQ_Far)",
+    ))
     .await;
-    assert!(run.stuck("Follow").is_empty(), "{:?}", run.stuck("Follow"));
+    assert_follow_not_stuck(&run);
     assert_eq!(
         actions_started(&run, "Follow"),
         ["Arm", "Takeoff", "FlyByY", "Land"]
@@ -517,13 +516,8 @@ async fn a_condition_that_a_drone_still_up_may_answer_is_not_stuck_on_a_lost_dro
 async fn a_condition_over_a_drones_own_telemetry_is_not_stuck_on_a_lost_peer() {
     // Follow never climbs to 100 m: it waits on itself, to the time limit,
     // and Lead being lost changes nothing about that.
-    let run = fly_mission_and_cut_lead(
-        watching("WaitUntil(Follow.Z() > 100, SEQ_Far)"),
-        LAND_AFTER_2S,
-        Heal::Never,
-    )
-    .await;
-    assert!(run.stuck("Follow").is_empty(), "{:?}", run.stuck("Follow"));
+    let run = fly_watching_and_cut_lead(watching("WaitUntil(Follow.Z() > 100, SEQ_Far)")).await;
+    assert_follow_not_stuck(&run);
     assert!(
         matches!(run.outcome("Follow"), Outcome::TimeLimit { .. }),
         "{:?}",
