@@ -13,8 +13,7 @@ use eamos_exec::transport::reliable::{Bridges, Delivered, RetransmitPolicy};
 use eamos_exec::transport::zenoh::{self as zenoh_link, ZenohOptions};
 use eamos_exec::transport::{BridgeMessage, Frame};
 
-#[path = "../src/cmd/bench_report/workload.rs"]
-mod workload;
+use eamos_bench::workload;
 
 const MISSION: &str = "benchbridge";
 

@@ -10,8 +10,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use eamos_lang::SourceFile;
 use eamos_verify::{check_net, Options};
 
-#[path = "../src/cmd/bench_report/workload.rs"]
-mod workload;
+use eamos_bench::workload;
 
 fn check(c: &mut Criterion) {
     let profiles = eamos_mid::profiles::builtin();

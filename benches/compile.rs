@@ -5,8 +5,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use eamos_lang::SourceFile;
 
-#[path = "../src/cmd/bench_report/workload.rs"]
-mod workload;
+use eamos_bench::workload;
 
 fn paper_missions(c: &mut Criterion) {
     let profiles = eamos_mid::profiles::builtin();

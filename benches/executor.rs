@@ -25,8 +25,7 @@ use eamos_mid::{
 use eamos_profile::ProfileTable;
 use eamos_slicer::Slices;
 
-#[path = "../src/cmd/bench_report/workload.rs"]
-mod workload;
+use eamos_bench::workload;
 
 /// A drone whose every action succeeds the moment it starts: what is left
 /// to measure is the executor.

@@ -11,8 +11,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use eamos_lang::SourceFile;
 use eamos_slicer::Slice;
 
-#[path = "../src/cmd/bench_report/workload.rs"]
-mod workload;
+use eamos_bench::workload;
 
 fn start(c: &mut Criterion) {
     let profiles = eamos_mid::profiles::builtin();

@@ -1,49 +1,5 @@
-//! Feeds arbitrary text to the whole front end (lexer, parser, checks,
-//! expansion, rendering): it must never panic, and every span it reports
-//! must lie inside the file.
+//! The `front_end` target: see `fuzz/src/front_end.rs`, which the test suite also
+//! replays over every committed seed (`tests/fuzz_corpus.rs`).
 #![no_main]
 
-use std::sync::OnceLock;
-
-use eamos_lang::{compile, render, SourceFile, Style};
-use eamos_profile::ProfileTable;
-use libfuzzer_sys::fuzz_target;
-
-/// The built-in quadcopter profile, read from the middle layer's data file
-/// rather than through `eamos-mid`, so the sanitizer build stays small.
-fn profiles() -> &'static ProfileTable {
-    static TABLE: OnceLock<ProfileTable> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let mut table = ProfileTable::new();
-        let quadcopter =
-            ProfileTable::parse_profile(include_str!("../../mid/profiles/quadcopter.toml"))
-                .expect("the built-in profile is valid");
-        table.insert(quadcopter).expect("one profile");
-        table
-    })
-}
-
-fuzz_target!(|data: &[u8]| {
-    let Ok(text) = std::str::from_utf8(data) else {
-        return;
-    };
-    let file = SourceFile::new("fuzz.go", text);
-    let len = text.len() as u32;
-    let diags = match compile(&file, profiles()) {
-        Ok(compiled) => {
-            let _ = compiled.mission.summary().to_string();
-            compiled.warnings
-        }
-        Err(diags) => diags,
-    };
-    for d in &diags {
-        assert!(d.span.start <= d.span.end && d.span.end <= len, "{d:?}");
-        for label in &d.labels {
-            assert!(
-                label.span.start <= label.span.end && label.span.end <= len,
-                "{d:?}"
-            );
-        }
-        let _ = render(d, &file, Style::PLAIN);
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| eamos_fuzz::front_end::run(data));

@@ -1,19 +1,5 @@
-//! Feeds arbitrary text to the JSON slice reader (`eamos build -o` writes
-//! it; a person may edit it). It must never panic, and a slice it accepts
-//! must survive its own encodings (JSON and binary) unchanged.
+//! The `slice_json` target: see `fuzz/src/slice_json.rs`, which the test suite also
+//! replays over every committed seed (`tests/fuzz_corpus.rs`).
 #![no_main]
 
-use eamos_slicer::Slice;
-use libfuzzer_sys::fuzz_target;
-
-fuzz_target!(|data: &[u8]| {
-    let Ok(text) = std::str::from_utf8(data) else {
-        return;
-    };
-    if let Ok(slice) = Slice::from_json(text) {
-        let again = Slice::from_json(&slice.to_json()).expect("a read slice reads again");
-        assert_eq!(again, slice);
-        let binary = Slice::from_bytes(&slice.to_bytes()).expect("a read slice decodes");
-        assert_eq!(binary, slice);
-    }
-});
+libfuzzer_sys::fuzz_target!(|data: &[u8]| eamos_fuzz::slice_json::run(data));

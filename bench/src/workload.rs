@@ -1,9 +1,6 @@
-//! The workloads of the benchmarks, shared by `benches/*.rs` (which include
-//! this file) and `eamos bench-report` (which measures the peak memory of
-//! the same work in a child process), so that both measure one thing.
-
-// Each benchmark uses a part of this module.
-#![allow(dead_code)]
+//! The workloads of the benchmarks, shared by `benches/*.rs` and the
+//! report's probes (which measure the peak memory of the same work in a
+//! child process), so that both measure one thing.
 
 use std::sync::Arc;
 

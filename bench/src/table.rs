@@ -1,0 +1,510 @@
+//! The table: criterion's results and the measured processes, each figure
+//! beside the paper's, its baseline and its goal.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use serde_json::Value;
+
+use crate::files::Facts;
+use crate::process::Process;
+use crate::workload::{SERIES, STRESS};
+
+/// The paper's stress test (section VIII-E).
+mod paper {
+    pub const COMPILE_SMALL_MS: f64 = 50.0;
+    pub const COMPILE_SMALL_KB: f64 = 4_368.78;
+    pub const START_SMALL_MS: f64 = 916.63;
+    pub const START_SMALL_KB: f64 = 3_749.50;
+    pub const COMPILE_STRESS_MS: f64 = 2_340.0;
+    pub const COMPILE_STRESS_KB: f64 = 23_979.0;
+    pub const START_STRESS_MS: f64 = 733.64;
+    pub const START_STRESS_KB: f64 = 4_257.45;
+}
+
+/// The goals of the stress test.
+mod goal {
+    pub const COMPILE_STRESS_MB: f64 = 16.0;
+    /// Compile time grows as nodes^k with k at most this.
+    pub const GROWTH_EXPONENT: f64 = 1.15;
+    pub const START_STRESS_MS: f64 = 10.0;
+    pub const CHECK_STRESS_MS: f64 = 1_000.0;
+    pub const BRIDGE_RATIO: f64 = 1.5;
+}
+
+/// How far a proof of the `check` probe went.
+struct Proof {
+    states: u64,
+    full_expansions: u64,
+    complete: bool,
+    /// The state-space exploration alone: what proves deadlock freedom.
+    seconds: f64,
+    found_something: bool,
+}
+
+impl Proof {
+    fn read(process: &Process) -> Option<Proof> {
+        let v: Value = serde_json::from_str(process.said.first()?).ok()?;
+        Some(Proof {
+            states: v.get("states")?.as_u64()?,
+            full_expansions: v.get("full_expansions")?.as_u64()?,
+            complete: v.get("complete")?.as_bool()?,
+            seconds: v.get("seconds")?.as_f64()?,
+            found_something: v.get("found_something")?.as_bool()?,
+        })
+    }
+}
+
+/// Criterion's results.
+pub struct Results {
+    pub root: PathBuf,
+}
+
+impl Results {
+    /// Time per iteration in nanoseconds of `group/function[/value]`.
+    fn ns(&self, id: &str) -> Option<f64> {
+        let v = self.json(id, "estimates.json")?;
+        v.get("slope")
+            .filter(|s| !s.is_null())
+            .or_else(|| v.get("mean"))
+            .and_then(|e| e.get("point_estimate"))
+            .and_then(Value::as_f64)
+    }
+
+    /// Elements per iteration of a benchmark with a throughput.
+    fn elements(&self, id: &str) -> Option<u64> {
+        self.json(id, "benchmark.json")?
+            .get("throughput")?
+            .get("Elements")?
+            .as_u64()
+    }
+
+    fn json(&self, id: &str, file: &str) -> Option<Value> {
+        let path = self.root.join(id).join("new").join(file);
+        let text = std::fs::read_to_string(path).ok()?;
+        serde_json::from_str(&text).ok()
+    }
+}
+
+pub struct Measured<'a> {
+    pub results: &'a Results,
+    pub facts: &'a Facts,
+    pub idle: Process,
+    pub compile_small: Process,
+    pub compile_stress: Process,
+    /// `gofmt` on the stress mission, where it is installed.
+    pub gofmt_stress: Option<Process>,
+    pub start_small: Process,
+    pub start_stress: Process,
+    pub check_stress: Process,
+    pub check_without_choices: Process,
+}
+
+/// One row of the table.
+struct Row {
+    what: String,
+    eamos: String,
+    paper: String,
+    baseline: String,
+    goal: String,
+    met: String,
+}
+
+fn row(what: impl Into<String>, eamos: impl Into<String>) -> Row {
+    Row {
+        what: what.into(),
+        eamos: eamos.into(),
+        paper: "–".into(),
+        baseline: "–".into(),
+        goal: "–".into(),
+        met: String::new(),
+    }
+}
+
+impl Row {
+    fn paper(mut self, p: impl Into<String>) -> Row {
+        self.paper = p.into();
+        self
+    }
+    fn baseline(mut self, b: impl Into<String>) -> Row {
+        self.baseline = b.into();
+        self
+    }
+    fn goal(mut self, g: impl Into<String>, met: Option<bool>) -> Row {
+        self.goal = g.into();
+        self.met = match met {
+            Some(true) => "met".into(),
+            Some(false) => "not met".into(),
+            None => MISSING.into(),
+        };
+        self
+    }
+}
+
+const MISSING: &str = "not measured";
+
+fn time(ns: Option<f64>) -> String {
+    match ns {
+        None => MISSING.into(),
+        Some(ns) if ns >= 1e9 => format!("{:.2} s", ns / 1e9),
+        Some(ns) if ns >= 1e6 => format!("{:.2} ms", ns / 1e6),
+        Some(ns) if ns >= 1e3 => format!("{:.1} µs", ns / 1e3),
+        Some(ns) => format!("{ns:.0} ns"),
+    }
+}
+
+fn ms(d: Duration) -> String {
+    time(Some(d.as_nanos() as f64))
+}
+
+fn paper_ms(ms: f64) -> String {
+    time(Some(ms * 1e6))
+}
+
+/// Megabytes (10^6 bytes) from KiB.
+fn mb(kib: u64) -> f64 {
+    kib as f64 * 1024.0 / 1e6
+}
+
+fn mem(kib: u64) -> String {
+    if kib == 0 {
+        MISSING.into()
+    } else {
+        format!("{:.1} MB", mb(kib))
+    }
+}
+
+fn paper_kb(kb: f64) -> String {
+    format!("{:.1} MB", kb * 1e3 / 1e6)
+}
+
+/// Least-squares slope of log(time) over log(nodes): 1 is linear.
+fn growth_exponent(points: &[(f64, f64)]) -> Option<f64> {
+    if points.len() < 2 {
+        return None;
+    }
+    let logs: Vec<(f64, f64)> = points.iter().map(|&(x, y)| (x.ln(), y.ln())).collect();
+    let n = logs.len() as f64;
+    let mx = logs.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = logs.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+pub fn table(m: &Measured) -> String {
+    let r = m.results;
+    let (small, stress) = (&m.facts.small, &m.facts.stress);
+    let idle_mem = format!("{} (a process that does nothing)", mem(m.idle.peak_kib));
+    let mut rows = Vec::new();
+
+    for (f, paper_ms_v, paper_kb_v, process) in [
+        (
+            small,
+            paper::COMPILE_SMALL_MS,
+            paper::COMPILE_SMALL_KB,
+            &m.compile_small,
+        ),
+        (
+            stress,
+            paper::COMPILE_STRESS_MS,
+            paper::COMPILE_STRESS_KB,
+            &m.compile_stress,
+        ),
+    ] {
+        let n = f.spec.nodes;
+        let total = r.ns(&format!("compile/total/{n}"));
+        let parts = format!(
+            "{} (front end {}, net {}, slices {})",
+            time(total),
+            time(r.ns(&format!("compile/parse/{n}"))),
+            time(r.ns(&format!("compile/net/{n}"))),
+            time(r.ns(&format!("compile/slices/{n}")))
+        );
+        let what = format!(
+            "compile, {n}-node mission, {} drone{}",
+            f.spec.drones,
+            if f.spec.drones == 1 { "" } else { "s" }
+        );
+        let time_row = row(format!("{what}: time"), parts).paper(paper_ms(paper_ms_v));
+        let mut mem_row = row(
+            format!("{what}: peak memory of the process"),
+            mem(process.peak_kib),
+        )
+        .paper(paper_kb(paper_kb_v))
+        .baseline(idle_mem.clone());
+        let mut process_row = None;
+        if f.spec == STRESS {
+            // Side by side with gofmt formatting the same file, both whole
+            // processes measured in this run: the goal is gofmt's time.
+            let gofmt = m.gofmt_stress.as_ref();
+            let gofmt_said = gofmt.map_or(format!("gofmt: {MISSING} (not installed)"), |g| {
+                format!(
+                    "gofmt of the same file: {}, {}",
+                    ms(g.to_ready),
+                    mem(g.peak_kib)
+                )
+            });
+            process_row = Some(
+                row(
+                    format!("{what}: new process, mission file to slices"),
+                    ms(process.to_ready),
+                )
+                .baseline(gofmt_said.clone())
+                .goal(
+                    "≤ gofmt's time",
+                    gofmt.map(|g| process.to_ready <= g.to_ready),
+                ),
+            );
+            mem_row = mem_row.baseline(format!("{gofmt_said}; {idle_mem}")).goal(
+                format!("≤ {} MB", goal::COMPILE_STRESS_MB),
+                (process.peak_kib > 0).then(|| mb(process.peak_kib) <= goal::COMPILE_STRESS_MB),
+            );
+        }
+        rows.push(time_row);
+        rows.extend(process_row);
+        rows.push(mem_row);
+    }
+
+    let series: Vec<(f64, f64)> = SERIES
+        .iter()
+        .filter_map(|&n| {
+            r.ns(&format!("compile_series/total/{n}"))
+                .map(|t| (n as f64, t))
+        })
+        .collect();
+    let per_node: Vec<String> = series
+        .iter()
+        .map(|&(n, t)| format!("{}: {:.2} µs", n as u64, t / n / 1e3))
+        .collect();
+    let exponent = growth_exponent(&series);
+    rows.push(
+        row(
+            "compile time per node, 20 drones, 1k to 100k nodes",
+            format!(
+                "{}; time ∝ nodes^{}",
+                if per_node.is_empty() {
+                    MISSING.to_string()
+                } else {
+                    per_node.join(", ")
+                },
+                exponent.map_or(MISSING.to_string(), |k| format!("{k:.2}"))
+            ),
+        )
+        .goal(
+            format!("linear (exponent ≤ {})", goal::GROWTH_EXPONENT),
+            exponent.map(|k| k <= goal::GROWTH_EXPONENT),
+        ),
+    );
+
+    for (f, paper_ms_v, paper_kb_v, process, paper_nodes) in [
+        (
+            small,
+            paper::START_SMALL_MS,
+            paper::START_SMALL_KB,
+            &m.start_small,
+            "22-node drone part",
+        ),
+        (
+            stress,
+            paper::START_STRESS_MS,
+            paper::START_STRESS_KB,
+            &m.start_stress,
+            "634-node drone part",
+        ),
+    ] {
+        let n = f.spec.nodes;
+        let what = format!(
+            "agent start, {n}-node mission, largest slice ({}: {} places, {} transitions, {} kB file)",
+            f.drone,
+            f.places,
+            f.transitions,
+            f.bytes.div_ceil(1000)
+        );
+        let ready = r.ns(&format!("start/ready/{n}"));
+        let mut t = row(
+            format!("{what}: slice file to agent ready (in process)"),
+            format!(
+                "{} (decoding {})",
+                time(ready),
+                time(r.ns(&format!("start/decode/{n}")))
+            ),
+        )
+        .paper(format!("{} ({paper_nodes})", paper_ms(paper_ms_v)));
+        if f.spec == STRESS {
+            t = t.goal(
+                format!("≤ {} ms", goal::START_STRESS_MS),
+                ready.map(|v| v <= goal::START_STRESS_MS * 1e6),
+            );
+        }
+        rows.push(t);
+        rows.push(
+            row(
+                format!("{what}: new process to agent ready on zenoh"),
+                ms(process.to_ready),
+            )
+            .paper(paper_ms(paper_ms_v))
+            .baseline(format!(
+                "{} (a process that does nothing)",
+                ms(m.idle.to_ready)
+            )),
+        );
+        rows.push(
+            row(
+                format!("{what}: peak memory of the process"),
+                mem(process.peak_kib),
+            )
+            .paper(paper_kb(paper_kb_v))
+            .baseline(idle_mem.clone()),
+        );
+    }
+
+    rows.push(
+        row(
+            format!(
+                "`eamos check`, {}-node mission ({} MEG nodes): every property",
+                small.spec.nodes, small.meg_nodes
+            ),
+            time(r.ns(&format!("check/check/{}", small.spec.nodes))),
+        )
+        .paper("– (no checker)"),
+    );
+    for (what, id, process) in [
+        (
+            "every structure of the language",
+            format!("check/check/{}", STRESS.nodes),
+            &m.check_stress,
+        ),
+        (
+            "without `If`, condition loops and `Do`",
+            format!("check/without_choices/{}", STRESS.nodes),
+            &m.check_without_choices,
+        ),
+    ] {
+        let t = r.ns(&id);
+        let proof = Proof::read(process);
+        let complete = proof.as_ref().map(|p| p.complete);
+        let what = format!(
+            "`eamos check`, {}-node mission, {} drones, {what}",
+            STRESS.nodes, STRESS.drones
+        );
+        rows.push(
+            row(
+                format!("{what}: deadlock freedom (the state-space exploration, one run)"),
+                proof.as_ref().map_or(MISSING.to_string(), |p| {
+                    format!(
+                        "{} ({}; {} states, {} fully expanded)",
+                        time(Some(p.seconds * 1e9)),
+                        if p.complete {
+                            "proof complete"
+                        } else {
+                            "**proof incomplete**: stopped at the memory bound"
+                        },
+                        p.states,
+                        p.full_expansions
+                    )
+                }),
+            )
+            .paper("– (no checker)")
+            .goal(
+                format!("≤ {} s", goal::CHECK_STRESS_MS / 1e3),
+                proof
+                    .as_ref()
+                    .map(|p| p.complete && p.seconds * 1e3 <= goal::CHECK_STRESS_MS),
+            ),
+        );
+        rows.push(
+            row(
+                format!("{what}: every property, and peak memory of the process"),
+                format!(
+                    "{}{}",
+                    time(t),
+                    proof.map_or(String::new(), |p| format!(
+                        " ({}; peak memory {})",
+                        if p.found_something {
+                            "**findings**"
+                        } else {
+                            "nothing found"
+                        },
+                        mem(process.peak_kib)
+                    ))
+                ),
+            )
+            .paper("– (no checker)")
+            .goal(
+                format!("≤ {} s", goal::CHECK_STRESS_MS / 1e3),
+                t.zip(complete)
+                    .map(|(v, c)| c && v <= goal::CHECK_STRESS_MS * 1e6),
+            ),
+        );
+    }
+
+    let firings = r
+        .ns("executor/firings/1000")
+        .zip(r.elements("executor/firings/1000"));
+    rows.push(row(
+        "executor: local transition firings per second, instant actions",
+        firings.map_or(MISSING.to_string(), |(ns, k)| {
+            format!(
+                "{:.0} k/s ({k} firings in {})",
+                k as f64 / ns * 1e6,
+                time(Some(ns))
+            )
+        }),
+    ));
+
+    let bare = r.ns("bridge/zenoh_bare");
+    let bridge = r.ns("bridge/round_trip");
+    let ratio = bare.zip(bridge).map(|(b, t)| t / b);
+    rows.push(
+        row(
+            "bridge round trip, drone A to B and back, zenoh on loopback",
+            format!(
+                "{}{}",
+                time(bridge),
+                ratio.map_or(String::new(), |x| format!(" ({x:.2}× bare)"))
+            ),
+        )
+        .baseline(format!("{} (bare zenoh ping-pong)", time(bare)))
+        .goal(
+            format!("≤ {}× bare", goal::BRIDGE_RATIO),
+            ratio.map(|x| x <= goal::BRIDGE_RATIO),
+        ),
+    );
+
+    let mut out = String::new();
+    out.push_str("| measurement | eamos | paper | baseline | goal | met |\n");
+    out.push_str("| --- | --- | --- | --- | --- | --- |\n");
+    for r in rows {
+        out.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} |\n",
+            r.what, r.eamos, r.paper, r.baseline, r.goal, r.met
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_linear_series_has_growth_exponent_one_and_a_quadratic_two() {
+        let linear: Vec<(f64, f64)> = [1e3, 1e4, 1e5].iter().map(|&n| (n, 3.0 * n)).collect();
+        let quadratic: Vec<(f64, f64)> = [1e3, 1e4, 1e5].iter().map(|&n| (n, n * n)).collect();
+        assert!((growth_exponent(&linear).unwrap() - 1.0).abs() < 1e-9);
+        assert!((growth_exponent(&quadratic).unwrap() - 2.0).abs() < 1e-9);
+        assert_eq!(growth_exponent(&linear[..1]), None);
+    }
+
+    #[test]
+    fn times_and_sizes_print_in_readable_units() {
+        assert_eq!(time(Some(2.34e9)), "2.34 s");
+        assert_eq!(time(Some(12.345e6)), "12.35 ms");
+        assert_eq!(time(Some(45_600.0)), "45.6 µs");
+        assert_eq!(time(Some(80.0)), "80 ns");
+        assert_eq!(time(None), MISSING);
+        assert_eq!(mem(15_625), "16.0 MB");
+        assert_eq!(paper_kb(23_979.0), "24.0 MB");
+    }
+}
