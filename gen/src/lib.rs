@@ -2,6 +2,10 @@
 //! benchmarks and property tests, in the proportions of the paper's
 //! experiments.
 //!
+//! It never writes a mission the front end would refuse: a generated
+//! mission builds, and checks clean unless risky dependencies were asked
+//! for.
+//!
 //! ```
 //! use eamos_gen::{generate, Options, Size};
 //! let m = generate(&Options::new(3, Size::Nodes(120), 7)).unwrap();

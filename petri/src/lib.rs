@@ -2,6 +2,10 @@
 //! checked mission ([`compile()`]), the reference token game ([`game`]), the
 //! exports ([`export`]) and size statistics ([`stats`]).
 //!
+//! It never touches the network, never runs an adapter and never decides a
+//! property: the net it compiles is the one artefact that the checker
+//! proves, the slicer cuts and the executor plays.
+//!
 //! ```
 //! use eamos_lang::SourceFile;
 //! use eamos_petri::game::{self, oracle, Outcome};

@@ -3,6 +3,9 @@
 //! between two owners becomes a bridge, the only thing that crosses between
 //! drones at run time.
 //!
+//! It never changes what the net does (a slice set plays the same visible
+//! events as the net it came from) and never touches the network.
+//!
 //! ```text
 //! slice(&net) -> Slices { slices: [GCS, Drone1, ...], distributed, mission_id }
 //! ```

@@ -10,6 +10,10 @@
 //! initial marking, named in mission terms and with the transitions' ids so
 //! that the token game can replay them.
 //!
+//! It never runs an adapter or touches the network, and never reports a
+//! property as holding when its exploration stopped short (the report
+//! says the property is undecided).
+//!
 //! ```no_run
 //! # fn demo(net: &eamos_petri::Net, profiles: &eamos_profile::ProfileTable, text: &str) {
 //! let report = eamos_verify::check_net(net, profiles, Some(text), &eamos_verify::Options::default());
