@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{claimed, replay, Builder};
+use common::{claimed, is_dead, replay, Builder};
 use eamos_lang::hir::BinaryOp;
 use eamos_lang::span::SourceFile;
 use eamos_petri::net::TransitionKind;
@@ -30,12 +30,21 @@ fn assert_traces_replay(b: &Builder, r: &Report) {
         if let Some(t) = &f.trace {
             match t.cycle_from {
                 None => {
-                    assert_eq!(
-                        replay(&b.net, &t.steps),
-                        claimed(t),
-                        "finding: {}",
-                        f.message
-                    )
+                    let reached = replay(&b.net, &t.steps);
+                    assert_eq!(reached, claimed(t), "finding: {}", f.message);
+                    if f.kind == FindingKind::Deadlock {
+                        let final_id = b.net.id(b.net.final_place);
+                        assert!(
+                            reached.iter().all(|(p, _)| p != final_id),
+                            "deadlock `{}` ends in the final marking",
+                            f.message
+                        );
+                        assert!(
+                            is_dead(&b.net, &reached),
+                            "deadlock `{}` ends in a live marking",
+                            f.message
+                        );
+                    }
                 }
                 Some(c) => {
                     // A lasso: the steps replay, and the cycle comes back to

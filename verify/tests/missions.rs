@@ -101,8 +101,38 @@ fn replay(net: &Net, f: &Finding) {
             let mut want: Vec<String> = trace.marking.iter().map(|(p, _)| p.clone()).collect();
             want.sort();
             assert_eq!(got, want, "`{}` reaches the marking it reports", f.message);
+            if f.kind == FindingKind::Deadlock {
+                assert_dead_and_not_final(net, &m, &f.message);
+            }
         }
     }
+}
+
+/// A deadlock's marking is not the mission's end, and nothing can fire in
+/// it even if every condition guard held (the checker lets a condition go
+/// either way, so a transition waiting only on one is not dead).
+fn assert_dead_and_not_final(net: &Net, m: &Marking, message: &str) {
+    assert!(
+        !m.is_marked(net.final_place),
+        "`{message}` ends in the final marking, which is no deadlock"
+    );
+    let enabled = game::enabled(net, m, &mut |_, _, _| true);
+    assert!(
+        enabled.is_empty(),
+        "`{message}` ends in a live marking: {:?} can fire",
+        enabled
+            .iter()
+            .map(|e| net.id(e.transition).to_string())
+            .collect::<Vec<_>>()
+    );
+}
+
+/// Nothing found, and every property decided: an exploration that stopped
+/// at its limit finds nothing too, and is no proof.
+fn assert_proved_clean(r: &Report, what: &str) {
+    assert!(!r.found_something(), "{what}: {:#?}", r.findings);
+    let undecided: Vec<_> = r.undecided().map(|p| p.name()).collect();
+    assert!(undecided.is_empty(), "{what}: undecided {undecided:?}");
 }
 
 fn replay_all(net: &Net, r: &Report) {
@@ -193,7 +223,7 @@ fn a_loop_whose_condition_always_holds_never_ends() {
 #[test]
 fn counted_loops_end_by_themselves_and_nothing_is_found() {
     let (r, _, _) = mission("counted_square.go");
-    assert!(!r.found_something(), "{:#?}", r.findings);
+    assert_proved_clean(&r, "counted_square.go");
     let term = r
         .properties
         .iter()
@@ -207,7 +237,7 @@ fn counted_loops_end_by_themselves_and_nothing_is_found() {
 #[test]
 fn a_handshake_of_signals_and_awaits_is_proved_correct() {
     let (r, _, _) = mission("handshake.go");
-    assert!(!r.found_something(), "{:#?}", r.findings);
+    assert_proved_clean(&r, "handshake.go");
     for p in Property::ALL {
         assert_eq!(r.verdict(p), Some(&Verdict::Holds), "{}", p.name());
     }
@@ -222,7 +252,7 @@ fn the_paper_missions_a_b_c_and_listing_1_are_clean() {
         "listing01_demo.go",
     ] {
         let (r, _, _) = paper(m);
-        assert!(!r.found_something(), "{m}: {:#?}", r.findings);
+        assert_proved_clean(&r, m);
     }
 }
 

@@ -325,3 +325,27 @@ pub fn claimed(trace: &eamos_verify::Trace) -> Vec<(String, u32)> {
     v.sort();
     v
 }
+
+/// Whether nothing can fire in `marking` (as [`replay`] returns it) on the
+/// net's P/T skeleton, every guard taken as possibly holding: what a
+/// deadlock's marking must be, besides not final.
+pub fn is_dead(net: &Net, marking: &[(String, u32)]) -> bool {
+    use eamos_petri::net::Node;
+    use petgraph::visit::EdgeRef;
+    let tokens = |p: petgraph::graph::NodeIndex| {
+        let Node::Place(place) = &net.graph[p] else {
+            return 0;
+        };
+        marking
+            .iter()
+            .find(|(id, _)| *id == place.id)
+            .map_or(0, |(_, n)| *n)
+    };
+    net.graph.node_indices().all(|t| {
+        !matches!(net.graph[t], Node::Transition(_))
+            || net
+                .graph
+                .edges_directed(t, petgraph::Direction::Incoming)
+                .any(|e| tokens(e.source()) < e.weight().weight)
+    })
+}
