@@ -362,7 +362,7 @@ pub fn table(m: &Measured) -> String {
     rows.push(
         row(
             format!(
-                "`eamos check`, {}-node mission ({} MEG nodes): every property",
+                "`eamos check`, {}-node mission ({} MEG nodes): every property, from the mission text",
                 small.spec.nodes, small.meg_nodes
             ),
             time(r.ns(&format!("check/check/{}", small.spec.nodes))),
@@ -415,7 +415,9 @@ pub fn table(m: &Measured) -> String {
         );
         rows.push(
             row(
-                format!("{what}: every property, and peak memory of the process"),
+                format!(
+                    "{what}: every property from the mission text, and peak memory of the process"
+                ),
                 format!(
                     "{}{}",
                     time(t),
