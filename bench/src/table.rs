@@ -322,33 +322,35 @@ pub fn table(m: &Measured) -> String {
             f.bytes.div_ceil(1000)
         );
         let ready = r.ns(&format!("start/ready/{n}"));
-        let mut t = row(
-            format!("{what}: slice file to agent ready (in process)"),
-            format!(
-                "{} (decoding {})",
-                time(ready),
-                time(r.ns(&format!("start/decode/{n}")))
-            ),
-        )
-        .paper(format!("{} ({paper_nodes})", paper_ms(paper_ms_v)));
-        if f.spec == STRESS {
-            t = t.goal(
-                format!("≤ {} ms", goal::START_STRESS_MS),
-                ready.map(|v| v <= goal::START_STRESS_MS * 1e6),
-            );
-        }
-        rows.push(t);
         rows.push(
             row(
-                format!("{what}: new process to agent ready on zenoh"),
-                ms(process.to_ready),
+                format!("{what}: slice file to agent ready (in process)"),
+                format!(
+                    "{} (decoding {})",
+                    time(ready),
+                    time(r.ns(&format!("start/decode/{n}")))
+                ),
             )
-            .paper(paper_ms(paper_ms_v))
-            .baseline(format!(
-                "{} (a process that does nothing)",
-                ms(m.idle.to_ready)
-            )),
+            .paper(format!("{} ({paper_nodes})", paper_ms(paper_ms_v))),
         );
+        // The goal is judged on what a drone's companion computer does: a
+        // new process reading its slice and joining zenoh.
+        let mut new_process = row(
+            format!("{what}: new process to agent ready on zenoh"),
+            ms(process.to_ready),
+        )
+        .paper(paper_ms(paper_ms_v))
+        .baseline(format!(
+            "{} (a process that does nothing)",
+            ms(m.idle.to_ready)
+        ));
+        if f.spec == STRESS {
+            new_process = new_process.goal(
+                format!("≤ {} ms", goal::START_STRESS_MS),
+                Some(process.to_ready.as_secs_f64() * 1e3 <= goal::START_STRESS_MS),
+            );
+        }
+        rows.push(new_process);
         rows.push(
             row(
                 format!("{what}: peak memory of the process"),
