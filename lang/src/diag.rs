@@ -160,6 +160,10 @@ pub const CODES: &[(&str, &str)] = &[
         "an action used in a condition",
     ),
     (
+        "eamos::same-drone",
+        "a property that relates two drones given one drone twice (`D1.DistanceTo(D1)`)",
+    ),
+    (
         "eamos::bad-repeat-count",
         "a `RepeatFor` count that is negative or not whole",
     ),

@@ -5,7 +5,7 @@
 use eamos_profile::{ParamKind, ValueType};
 
 use super::state::{
-    kind_name, list, offers, Checker, Ctx, Env, Konst, Low, Mode, Ty,
+    kind_name, list, offers, Checker, Ctx, Env, Konst, Low, Mode, Ty, UNKNOWN_DRONE,
 };
 use crate::ast::{self, ControlKind, ExprKind};
 use crate::diag::{did_you_mean, Diagnostic};
@@ -45,6 +45,7 @@ impl<'a> Checker<'a> {
         callee: &'a ast::Expr,
         args: &'a ast::Args,
         env: &Env<'a>,
+        ctx: &Ctx,
     ) -> Option<Low> {
         let span = e.span;
         let (drone_expr, field) = match &callee.kind {
@@ -168,6 +169,32 @@ impl<'a> Checker<'a> {
                 span: arg.span,
             };
             let other = self.resolve_drone(&ident, env)?;
+            // In the check pass a drone parameter is "some drone" (no id):
+            // only the same name is surely the same drone there; the
+            // expansion knows which drone each argument is.
+            let same = other.id == drone.id
+                && (self.mode == Mode::Expand || other.id != UNKNOWN_DRONE || name == drone_name);
+            if same {
+                let d = Diagnostic::error(
+                    "eamos::same-drone",
+                    arg.span,
+                    match self.drones.get(drone.id.0 as usize) {
+                        Some(decl) if name != drone_name => format!(
+                            "{what} relates a drone to itself: `{drone_name}` and `{name}` are both `{}` here",
+                            decl.name.name
+                        ),
+                        _ => format!("{what} relates `{drone_name}` to itself"),
+                    },
+                )
+                .with_label("the same drone")
+                .with_help(format!(
+                    "name another drone: measured against itself, `{}` never changes \
+                     (a drone's distance to itself is always 0)",
+                    field.name
+                ));
+                self.emit_value(d, ctx);
+                return None;
+            }
             drone_args.push(other.id);
         }
         if self.mode == Mode::Expand {

@@ -179,7 +179,7 @@ impl<'a> Checker<'a> {
                 self.emit(d);
                 None
             }
-            ExprKind::Call { callee, args } => self.lower_property(e, callee, args, env),
+            ExprKind::Call { callee, args } => self.lower_property(e, callee, args, env, ctx),
             ExprKind::Unary {
                 op,
                 op_span,
