@@ -16,6 +16,11 @@ use crate::span::{SourceFile, Span};
 /// Every diagnostic code the front end emits, with what it means. Codes are
 /// stable: tools and tests key on them, messages may be reworded.
 pub const CODES: &[(&str, &str)] = &[
+    // Reading the file.
+    (
+        "eamos::not-utf8",
+        "a file whose bytes are not UTF-8 text (saved in another encoding)",
+    ),
     // Lexical and syntax errors.
     (
         "eamos::syntax",
