@@ -109,6 +109,31 @@ fn an_unreadable_file_is_an_error_naming_the_path() {
 }
 
 #[test]
+fn a_file_that_is_not_utf8_is_a_located_error_from_build_and_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("latin1.go");
+    // Line 3 was saved in Latin-1: its `é` is the byte 0xE9, not UTF-8.
+    std::fs::write(
+        &path,
+        b"package Latin\n\n// caf\xe9 first\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Takeoff(1)\n}\n",
+    )
+    .unwrap();
+    for command in ["build", "check"] {
+        eamos()
+            .arg(command)
+            .arg(&path)
+            .assert()
+            .code(2)
+            .stdout(predicate::str::is_empty())
+            .stderr(predicate::str::contains("eamos::not-utf8"))
+            .stderr(predicate::str::contains("the file is not valid UTF-8"))
+            .stderr(predicate::str::contains("latin1.go:3:7"))
+            .stderr(predicate::str::contains("caf\u{fffd} first"))
+            .stderr(predicate::str::contains("stream did not contain").not());
+    }
+}
+
+#[test]
 fn json_output_gives_the_summary_or_the_diagnostics_with_positions() {
     let out = eamos()
         .args(["build", "--json"])

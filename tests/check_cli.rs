@@ -123,6 +123,32 @@ fn check_that_stops_at_its_memory_bound_is_not_a_proof_and_exits_3() {
 }
 
 #[test]
+fn check_of_a_billion_rounds_says_at_once_that_they_are_too_many_and_exits_3() {
+    // The counter of a `RepeatFor` is explored exactly, one state per round:
+    // a billion rounds would run for minutes before reaching the memory
+    // bound. The checker must say so at once, pointing at the count.
+    let dir = tempfile::tempdir().unwrap();
+    let m = write(
+        &dir,
+        "billion.go",
+        "package Billion\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Takeoff(1)\n\tRepeatFor(1000000000, SEQ_Hop)\n\tD1.Land()\n}\n\nfunc SEQ_Hop() {\n\tD1.FlyByX(1)\n}\n",
+    );
+    let limit = std::time::Duration::from_secs(60);
+    eamos().arg("build").arg(&m).timeout(limit).assert().code(0);
+    eamos()
+        .arg("check")
+        .arg(&m)
+        .env("NO_COLOR", "1")
+        .timeout(limit)
+        .assert()
+        .code(3)
+        .stdout(predicate::str::contains("eamos::too-large-to-explore"))
+        .stdout(predicate::str::contains("billion.go:7:12"))
+        .stdout(predicate::str::contains("1000000000 rounds"))
+        .stdout(predicate::str::contains("nothing found, but not proved"));
+}
+
+#[test]
 fn check_of_a_mission_with_front_end_errors_prints_them_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
     let m = write(

@@ -16,6 +16,11 @@ use crate::span::{SourceFile, Span};
 /// Every diagnostic code the front end emits, with what it means. Codes are
 /// stable: tools and tests key on them, messages may be reworded.
 pub const CODES: &[(&str, &str)] = &[
+    // Reading the file.
+    (
+        "eamos::not-utf8",
+        "a file whose bytes are not UTF-8 text (saved in another encoding)",
+    ),
     // Lexical and syntax errors.
     (
         "eamos::syntax",
@@ -158,6 +163,10 @@ pub const CODES: &[(&str, &str)] = &[
     (
         "eamos::action-in-condition",
         "an action used in a condition",
+    ),
+    (
+        "eamos::same-drone",
+        "a property that relates two drones given one drone twice (`D1.DistanceTo(D1)`)",
     ),
     (
         "eamos::bad-repeat-count",
@@ -482,12 +491,19 @@ pub fn suggest<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) ->
     best.map(|(_, c)| c)
 }
 
-/// `did you mean `X`?`, when a close name exists.
+/// The help for a name that is not known: `did you mean `X`?` when a close
+/// name exists, else `otherwise()` (what to do instead). Every unknown name
+/// the checker reports gets its help here, so suggestions read the same
+/// everywhere and are computed one way.
 pub fn did_you_mean<'a>(
     name: &str,
     candidates: impl IntoIterator<Item = &'a str>,
-) -> Option<String> {
-    suggest(name, candidates).map(|s| format!("did you mean `{s}`?"))
+    otherwise: impl FnOnce() -> String,
+) -> String {
+    match suggest(name, candidates) {
+        Some(s) => format!("did you mean `{s}`?"),
+        None => otherwise(),
+    }
 }
 
 #[cfg(test)]
@@ -497,7 +513,15 @@ mod tests {
     #[test]
     fn every_code_the_front_end_emits_is_listed_once() {
         let sources = [
-            include_str!("check.rs"),
+            include_str!("check/mod.rs"),
+            include_str!("check/state.rs"),
+            include_str!("check/resolve.rs"),
+            include_str!("check/fold.rs"),
+            include_str!("check/graph.rs"),
+            include_str!("check/expand.rs"),
+            include_str!("check/profile.rs"),
+            include_str!("check/control.rs"),
+            include_str!("check/conditions.rs"),
             include_str!("lexer.rs"),
             include_str!("parser.rs"),
             include_str!("lib.rs"),

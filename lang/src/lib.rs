@@ -27,6 +27,43 @@ pub use span::{SourceFile, Span};
 
 use eamos_profile::ProfileTable;
 
+/// A mission file's bytes as a [`SourceFile`].
+///
+/// A file that is not UTF-8 cannot be lexed. Instead of an I/O error
+/// without a place, the error is a diagnostic at the first bad byte (line
+/// and column, like any other), and comes with the file decoded lossily
+/// (each bad sequence shown as U+FFFD, which keeps every offset before it)
+/// so that it renders with its source line.
+pub fn decode(
+    name: impl Into<String>,
+    bytes: Vec<u8>,
+) -> Result<SourceFile, (SourceFile, Vec<Diagnostic>)> {
+    let err = match String::from_utf8(bytes) {
+        Ok(text) => return Ok(SourceFile::new(name, text)),
+        Err(e) => e,
+    };
+    let at = err.utf8_error().valid_up_to();
+    let bytes = err.as_bytes();
+    let bad_len = err.utf8_error().error_len().unwrap_or(bytes.len() - at);
+    let shown: Vec<String> = bytes[at..at + bad_len]
+        .iter()
+        .map(|b| format!("0x{b:02X}"))
+        .collect();
+    let text = String::from_utf8_lossy(bytes).into_owned();
+    let file = SourceFile::new(name, text);
+    let d = Diagnostic::error(
+        "eamos::not-utf8",
+        Span::new(at, at + char::REPLACEMENT_CHARACTER.len_utf8()),
+        "the file is not valid UTF-8",
+    )
+    .with_label(match shown.as_slice() {
+        [one] => format!("byte {one} is not UTF-8"),
+        several => format!("bytes {} are not UTF-8", several.join(" ")),
+    })
+    .with_help("a mission is UTF-8 text, as Go source is: save the file as UTF-8");
+    Err((file, vec![d]))
+}
+
 /// A mission that compiled, and what is worth a look in it anyway.
 #[derive(Debug, Clone)]
 pub struct Compiled {

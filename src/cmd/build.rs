@@ -68,8 +68,8 @@ fn write_net(
 
 pub fn run(args: Args) -> ExitCode {
     let name = args.mission.display().to_string();
-    let text = match std::fs::read_to_string(&args.mission) {
-        Ok(t) => t,
+    let bytes = match std::fs::read(&args.mission) {
+        Ok(b) => b,
         Err(e) => {
             let message = format!("cannot read {name}: {e}");
             if args.json {
@@ -79,14 +79,17 @@ pub fn run(args: Args) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let source = SourceFile::new(name, text);
-    let profiles = eamos_mid::profiles::builtin();
     let style = Style {
         width: 100,
         colour: !args.json
             && std::io::stderr().is_terminal()
             && std::env::var_os("NO_COLOR").is_none(),
     };
+    let source = match eamos_lang::decode(name, bytes) {
+        Ok(source) => source,
+        Err((source, diags)) => return bad_mission(&args, &source, &diags, style),
+    };
+    let profiles = eamos_mid::profiles::builtin();
     match eamos_lang::compile(&source, &profiles) {
         Ok(compiled) => {
             let summary = compiled.mission.summary();
@@ -165,13 +168,23 @@ pub fn run(args: Args) -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Err(diags) => {
-            if args.json {
-                let records: Vec<_> = diags.iter().map(|d| d.record(&source)).collect();
-                println!("{}", json!({ "file": source.name, "diagnostics": records }));
-            }
-            eprint!("{}", eamos_lang::render_all(&diags, &source, style));
-            ExitCode::from(2)
-        }
+        Err(diags) => bad_mission(&args, &source, &diags, style),
     }
+}
+
+/// A mission that does not compile (or cannot even be decoded): its
+/// diagnostics on standard error (and, with `--json`, on standard output),
+/// exit status 2.
+fn bad_mission(
+    args: &Args,
+    source: &SourceFile,
+    diags: &[eamos_lang::Diagnostic],
+    style: Style,
+) -> ExitCode {
+    if args.json {
+        let records: Vec<_> = diags.iter().map(|d| d.record(source)).collect();
+        println!("{}", json!({ "file": source.name, "diagnostics": records }));
+    }
+    eprint!("{}", eamos_lang::render_all(diags, source, style));
+    ExitCode::from(2)
 }

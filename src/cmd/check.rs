@@ -35,8 +35,8 @@ pub struct Args {
 
 pub fn run(args: Args) -> ExitCode {
     let name = args.file.display().to_string();
-    let text = match std::fs::read_to_string(&args.file) {
-        Ok(t) => t,
+    let bytes = match std::fs::read(&args.file) {
+        Ok(b) => b,
         Err(e) => {
             return bad_input(
                 &args,
@@ -54,7 +54,21 @@ pub fn run(args: Args) -> ExitCode {
             eamos_verify::terminal_progress()
         },
     };
-    let source = SourceFile::new(name.clone(), text);
+    let style = Style {
+        width: 100,
+        colour: !args.json && std::io::stderr().is_terminal(),
+    };
+    let source = match eamos_lang::decode(name.clone(), bytes) {
+        Ok(source) => source,
+        Err((source, diags)) => {
+            let records: Vec<_> = diags.iter().map(|d| d.record(&source)).collect();
+            return bad_input(
+                &args,
+                json!({"file": name, "message": "the file is not valid UTF-8", "diagnostics": records}),
+                eamos_lang::render_all(&diags, &source, style).trim_end(),
+            );
+        }
+    };
     let report = if is_pnml(&args.file, &source.text) {
         match eamos_verify::pnml::parse(&name, &source.text) {
             Ok(net) => eamos_verify::check_pnml(&net, &options),
@@ -68,10 +82,6 @@ pub fn run(args: Args) -> ExitCode {
         }
     } else {
         let profiles = eamos_mid::profiles::builtin();
-        let style = Style {
-            width: 100,
-            colour: !args.json && std::io::stderr().is_terminal(),
-        };
         match eamos_lang::compile(&source, &profiles) {
             Ok(compiled) => {
                 if !compiled.warnings.is_empty() && !args.json {

@@ -31,15 +31,18 @@ pub fn bad_input(message: &str) -> ExitCode {
 /// prints the diagnostics (coloured if `colour`) and returns exit status 2.
 pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Mission, ExitCode> {
     let name = mission.display().to_string();
-    let text = std::fs::read_to_string(mission)
-        .map_err(|e| bad_input(&format!("cannot read {name}: {e}")))?;
-    let source = SourceFile::new(name.clone(), text);
-    let profiles = eamos_mid::profiles::builtin();
-    let compiled = eamos_lang::compile(&source, &profiles).map_err(|diags| {
-        let style = Style { width: 100, colour };
-        eprint!("{}", eamos_lang::render_all(&diags, &source, style));
+    let bytes =
+        std::fs::read(mission).map_err(|e| bad_input(&format!("cannot read {name}: {e}")))?;
+    let style = Style { width: 100, colour };
+    let report = |source: &SourceFile, diags: &[eamos_lang::Diagnostic]| {
+        eprint!("{}", eamos_lang::render_all(diags, source, style));
         ExitCode::from(2)
-    })?;
+    };
+    let source = eamos_lang::decode(name.clone(), bytes)
+        .map_err(|(source, diags)| report(&source, &diags))?;
+    let profiles = eamos_mid::profiles::builtin();
+    let compiled =
+        eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);
     let mut slices = eamos_slicer::slice(&net)
         .map_err(|e| bad_input(&format!("{name}: cannot slice the mission: {e}")))?;

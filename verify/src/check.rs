@@ -24,8 +24,8 @@ use std::sync::Arc;
 use crate::explore::{self, Bits, Bytes, Config, Encoding, Exploration, Stop};
 use crate::ptnet::{MonitorKind, PtNet};
 use crate::report::{
-    Finding, FindingKind, InputKind, Label, Property, PropertyResult, Report, Stats, Step, Trace,
-    Verdict,
+    Finding, FindingKind, InputKind, Label, Limit, Property, PropertyResult, Report, Stats, Step,
+    Trace, Verdict,
 };
 use crate::structural::Concurrency;
 use eamos_lang::Span;
@@ -86,6 +86,9 @@ pub(crate) struct Subject {
     pub loops: Vec<u32>,
     /// Waits on a condition (for the termination note).
     pub waits: Vec<u32>,
+    /// Why the net is not worth exploring (empty if it is): the exploration
+    /// is then skipped rather than run for minutes to its memory bound.
+    pub limits: Vec<Limit>,
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
@@ -99,7 +102,11 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         conditions,
         loops,
         waits,
+        limits,
     } = subject;
+    if !limits.is_empty() {
+        return unexplored(name, input, &pt, conditions, limits);
+    }
     let final_consumed = pt
         .final_place
         .is_some_and(|f| !pt.consumers.get(f as usize).is_empty());
@@ -804,26 +811,8 @@ impl Ctx {
         method: &str,
         conditions: Option<(Vec<Finding>, usize)>,
     ) -> Report {
-        match conditions {
-            Some((findings, checked)) => {
-                let verdict = if findings.is_empty() {
-                    Verdict::Holds
-                } else {
-                    Verdict::Violated
-                };
-                self.findings.extend(findings);
-                self.properties.push(result(
-                    Property::Conditions,
-                    verdict,
-                    format!("interval reasoning over property ranges ({checked} condition(s))"),
-                ));
-            }
-            None => self.properties.push(result(
-                Property::Conditions,
-                Verdict::NotApplicable("a plain net has no conditions".into()),
-                "-",
-            )),
-        }
+        self.properties
+            .push(conditions_result(conditions, &mut self.findings));
         self.properties.sort_by_key(|r| r.property);
         self.findings.sort_by_key(|f| f.kind);
         Report {
@@ -831,6 +820,7 @@ impl Ctx {
             input: self.input,
             properties: self.properties,
             findings: self.findings,
+            limits: Vec::new(),
             stats: Stats {
                 places: net.n_places(),
                 transitions: net.n_real,
@@ -848,6 +838,69 @@ impl Ctx {
                 max_tokens: ex.max_tokens,
             },
         }
+    }
+}
+
+/// The verdict on conditions, which needs no exploration; its findings go
+/// into `findings`.
+fn conditions_result(
+    conditions: Option<(Vec<Finding>, usize)>,
+    findings: &mut Vec<Finding>,
+) -> PropertyResult {
+    match conditions {
+        Some((found, checked)) => {
+            let verdict = if found.is_empty() {
+                Verdict::Holds
+            } else {
+                Verdict::Violated
+            };
+            findings.extend(found);
+            result(
+                Property::Conditions,
+                verdict,
+                format!("interval reasoning over property ranges ({checked} condition(s))"),
+            )
+        }
+        None => result(
+            Property::Conditions,
+            Verdict::NotApplicable("a plain net has no conditions".into()),
+            "-",
+        ),
+    }
+}
+
+/// The report when the net is not explored: the conditions are still
+/// decided (they need no exploration), every other property is unknown,
+/// and the limits say why.
+fn unexplored(
+    name: String,
+    input: InputKind,
+    pt: &PtNet,
+    conditions: Option<(Vec<Finding>, usize)>,
+    limits: Vec<Limit>,
+) -> Report {
+    let mut findings = Vec::new();
+    let reason = format!("not explored, see `eamos::{}`", limits[0].code);
+    let mut properties: Vec<PropertyResult> = Property::ALL
+        .iter()
+        .filter(|&&p| p != Property::Conditions)
+        .map(|&p| result(p, Verdict::Unknown(reason.clone()), "none"))
+        .collect();
+    properties.push(conditions_result(conditions, &mut findings));
+    properties.sort_by_key(|r| r.property);
+    findings.sort_by_key(|f| f.kind);
+    Report {
+        name,
+        input,
+        properties,
+        findings,
+        limits,
+        stats: Stats {
+            places: pt.n_places(),
+            transitions: pt.n_real,
+            reduction: "none".into(),
+            ..Stats::default()
+        },
     }
 }
 

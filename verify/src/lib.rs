@@ -33,8 +33,8 @@ mod structural;
 pub use check::Options;
 pub use pnml::{PnmlError, PnmlNet};
 pub use report::{
-    Finding, FindingKind, InputKind, Label, Property, PropertyResult, Report, Stats, Step, Trace,
-    Verdict,
+    Finding, FindingKind, InputKind, Label, Limit, Property, PropertyResult, Report, Stats, Step,
+    Trace, Verdict,
 };
 
 use eamos_petri::Net;

@@ -596,5 +596,6 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
         conditions: None,
         loops: Vec::new(),
         waits: Vec::new(),
+        limits: Vec::new(),
     }
 }

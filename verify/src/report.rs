@@ -197,6 +197,20 @@ pub struct Finding {
     pub trace: Option<Trace>,
 }
 
+/// Where the checker stopped short of exploring, and why. Not a finding:
+/// nothing is wrong with the mission, but the properties that need the
+/// exploration are left `unknown`, and this says which part of the mission
+/// made it so.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Limit {
+    /// Stable, like the findings' kinds (`too-large-to-explore`).
+    pub code: &'static str,
+    pub message: String,
+    /// Where in the source; the first label is the primary one.
+    pub labels: Vec<Label>,
+    pub notes: Vec<String>,
+}
+
 /// Counts of the exploration.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Stats {
@@ -223,6 +237,8 @@ pub struct Report {
     pub input: InputKind,
     pub properties: Vec<PropertyResult>,
     pub findings: Vec<Finding>,
+    /// Why the exploration did not run (empty when it did).
+    pub limits: Vec<Limit>,
     pub stats: Stats,
 }
 
@@ -274,6 +290,11 @@ impl Report {
             if let Some(trace) = &f.trace {
                 render_trace(&mut out, trace, source);
             }
+            out.push('\n');
+        }
+        for l in &self.limits {
+            let diag = FindingDiagnostic::limit(l, source);
+            let _ = handler.render_report(&mut out, &diag);
             out.push('\n');
         }
         let _ = writeln!(out, "{} `{}`:", self.title(), self.name);
@@ -354,6 +375,8 @@ impl Report {
     ///       "counterexample": null | { "steps": [ { "transition", "kind",
     ///           "text", "internal", "span": span?, "condition_held": bool? } ],
     ///         "cycle_from": int?, "marking": [ { "place", "tokens" } ] } } ],
+    ///   "limits": [ { "code": str, "message": str, "spans": [ span ],
+    ///       "notes": [str] } ],
     ///   "stats": { "places", "transitions", "states", "edges",
     ///       "full_expansions", "seconds", "memory_bytes", "reduction",
     ///       "complete", "max_tokens" } }
@@ -403,6 +426,22 @@ impl Report {
                 })
             })
             .collect();
+        let limits: Vec<Value> = self
+            .limits
+            .iter()
+            .map(|l| {
+                let spans: Vec<Value> = l
+                    .labels
+                    .iter()
+                    .map(|x| {
+                        let mut v = span(x.span);
+                        v["label"] = json!(x.text);
+                        v
+                    })
+                    .collect();
+                json!({"code": l.code, "message": l.message, "spans": spans, "notes": l.notes})
+            })
+            .collect();
         let s = &self.stats;
         json!({
             "schema": "eamos-check/1",
@@ -418,6 +457,7 @@ impl Report {
                 "notes": r.notes,
             })).collect::<Vec<_>>(),
             "findings": findings,
+            "limits": limits,
             "stats": {
                 "places": s.places, "transitions": s.transitions, "states": s.states,
                 "edges": s.edges, "full_expansions": s.full_expansions,
@@ -473,9 +513,31 @@ struct FindingDiagnostic {
 
 impl FindingDiagnostic {
     fn new(f: &Finding, source: &SourceFile) -> Self {
+        let severity = if f.kind.is_error() {
+            miette::Severity::Error
+        } else {
+            miette::Severity::Warning
+        };
+        let code = format!("eamos::{}", f.kind.name());
+        Self::drawn(&f.message, code, severity, &f.labels, &f.notes, source)
+    }
+
+    fn limit(l: &Limit, source: &SourceFile) -> Self {
+        let code = format!("eamos::{}", l.code);
+        let severity = miette::Severity::Advice;
+        Self::drawn(&l.message, code, severity, &l.labels, &l.notes, source)
+    }
+
+    fn drawn(
+        message: &str,
+        code: String,
+        severity: miette::Severity,
+        labels: &[Label],
+        notes: &[String],
+        source: &SourceFile,
+    ) -> Self {
         let len = source.text.len() as u32;
-        let labels = f
-            .labels
+        let labels = labels
             .iter()
             .enumerate()
             .map(|(i, l)| {
@@ -490,16 +552,12 @@ impl FindingDiagnostic {
             })
             .collect();
         FindingDiagnostic {
-            message: f.message.clone(),
-            code: format!("eamos::{}", f.kind.name()),
-            severity: if f.kind.is_error() {
-                miette::Severity::Error
-            } else {
-                miette::Severity::Warning
-            },
+            message: message.to_string(),
+            code,
+            severity,
             source: NamedSource::new(source.name.clone(), source.text.clone()),
             labels,
-            help: (!f.notes.is_empty()).then(|| f.notes.join("\n")),
+            help: (!notes.is_empty()).then(|| notes.join("\n")),
         }
     }
 }
