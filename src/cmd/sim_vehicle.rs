@@ -12,7 +12,7 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use eamos_mid::mavlink::frame::Geodetic;
+use eamos_geo::Wgs84;
 use eamos_mid::mavlink::{ConnectAddress, Firmware, SimVehicle, SimVehicleOptions};
 
 /// Whose behaviour the vehicle imitates.
@@ -91,7 +91,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(a) => a,
         Err(e) => return bad_input(&format!("--connect: {e}")),
     };
-    let home = match Geodetic::parse(&args.home) {
+    let home = match Wgs84::parse(&args.home) {
         Ok(h) => h,
         Err(e) => return bad_input(&format!("--home: {e}")),
     };

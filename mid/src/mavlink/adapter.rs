@@ -61,6 +61,8 @@ use mavlink::MavHeader;
 use tokio::sync::watch;
 use tokio::time::{sleep, sleep_until, Instant};
 
+use eamos_geo::{LocalFrame, Ned, Wgs84};
+
 use crate::api::{
     ActionCall, ActionError, Adapter, AdapterInfo, Axis, CancellationToken, FlightMode,
     MultirotorAction, Telemetry, Vec3,
@@ -74,7 +76,6 @@ use super::dialect::{
     MavAutopilot, MavCmd, MavFrame, MavMessage, MavModeFlag, MavState, MavType,
     PositionTargetTypemask, HEARTBEAT_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
-use super::frame::{Geodetic, Ned};
 use super::link::Link;
 use super::modes::{Autopilot, ModeRole};
 use super::readiness::{NotReady, Readiness};
@@ -90,7 +91,7 @@ pub struct MavlinkOptions {
     /// the vehicle's GPS puts it when it becomes ready, relative to this
     /// point (X north, Y east, Z up), so real drones in one fleet agree on
     /// distances without measuring their start positions.
-    pub fleet_origin: Option<Geodetic>,
+    pub fleet_origin: Option<Wgs84>,
     /// Fly only the autopilot with this system id (several vehicles behind
     /// one router); `None` takes the first autopilot heard.
     pub target_system: Option<u8>,
@@ -220,7 +221,7 @@ impl MavlinkSettings {
             return Err("`target_system` 0 is the broadcast address, not a vehicle".to_string());
         }
         if let Some([lat, lon, alt]) = self.fleet_origin {
-            Geodetic::parse(&format!("{lat},{lon},{alt}"))
+            Wgs84::parse(&format!("{lat},{lon},{alt}"))
                 .map_err(|e| format!("`fleet_origin`: {e}"))?;
         }
         Ok(())
@@ -247,7 +248,7 @@ impl MavlinkSettings {
             options.min_speed = v;
         }
         if let Some([lat, lon, alt]) = self.fleet_origin {
-            options.fleet_origin = Some(Geodetic::new(lat, lon, alt));
+            options.fleet_origin = Some(Wgs84::new(lat, lon, alt));
         }
         if let Some(r) = self.rearm_for_takeoff {
             options.rearm_for_takeoff = r;
@@ -885,7 +886,7 @@ impl Shared {
             local.position.north, local.position.east, local.position.down
         );
         if let (Some(origin), Some(here)) = (self.options.fleet_origin, w.vehicle.global) {
-            frame.home = origin.ned_to(here).to_mission();
+            frame.home = LocalFrame::new(origin).to_local(here);
             detail.push_str(&format!(
                 "; home in the fleet frame {} from GPS {:.7}, {:.7}",
                 frame.home, here.lat, here.lon
@@ -1833,7 +1834,7 @@ mod tests {
         let mut o = MavlinkOptions::default();
         settings.apply(&mut o);
         assert_eq!(o.ready_timeout, Duration::from_secs(180));
-        assert_eq!(o.fleet_origin, Some(Geodetic::new(46.6, 14.2, 446.0)));
+        assert_eq!(o.fleet_origin, Some(Wgs84::new(46.6, 14.2, 446.0)));
         assert_eq!(o.link_timeout, MavlinkOptions::default().link_timeout);
         assert_eq!(o.arrival_tolerance, 0.3);
     }

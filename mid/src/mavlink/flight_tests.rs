@@ -17,13 +17,13 @@ use super::dialect::MavMessage;
 use super::dialect::{
     MavCmd, MavFrame, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
-use super::frame::Ned;
 use super::link::Link;
 use super::modes::{Autopilot, CopterMode, Px4Mode};
 use super::readiness::Missing;
 use super::vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
 use crate::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
 use crate::log::{AdapterEvent, LogRecord, MemorySink};
+use eamos_geo::{LocalFrame, Ned};
 
 /// Long enough for any action here on a loaded machine.
 const BOUND: Duration = Duration::from_secs(90);
@@ -505,7 +505,7 @@ async fn a_fleet_origin_puts_the_home_where_the_gps_says() {
         |_| {},
         |a| {
             let home = SimVehicleOptions::default().home;
-            a.fleet_origin = Some(home.offset(Ned::new(-10.0, 4.0, 0.0)));
+            a.fleet_origin = Some(LocalFrame::new(home).to_wgs84(Vec3::new(-10.0, 4.0, 0.0)));
         },
     )
     .await;

@@ -12,8 +12,6 @@
 //!   a refusal turned into a typed [`command::CommandError`].
 //! - [`modes`]: the autopilots' custom flight modes (ArduCopter, PX4) and
 //!   how they map onto the middle layer's [`crate::FlightMode`].
-//! - [`frame`]: the mission frame (X north, Y east, Z up) against MAVLink's
-//!   local NED frame, and geodetic offsets.
 //! - [`readiness`]: what an autopilot must report before it may be armed.
 //! - [`state`]: the vehicle as the ground station sees it, folded from
 //!   incoming messages.
@@ -24,7 +22,6 @@
 pub mod adapter;
 pub mod address;
 pub mod command;
-pub mod frame;
 pub mod link;
 pub mod modes;
 pub mod readiness;

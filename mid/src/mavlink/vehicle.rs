@@ -65,6 +65,8 @@ use tokio::sync::{broadcast, watch};
 use tokio::time::{sleep_until, Instant};
 use tokio_util::sync::CancellationToken;
 
+use eamos_geo::{LocalFrame, Ned, Wgs84};
+
 use crate::api::{FlightMode, Vec3};
 use crate::sim::kinematics::{Multirotor, MultirotorConfig};
 
@@ -77,7 +79,6 @@ use super::dialect::{
     HEARTBEAT_DATA, LOCAL_POSITION_NED_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA, STATUSTEXT_DATA,
     SYS_STATUS_DATA,
 };
-use super::frame::{Geodetic, Ned};
 use super::link::{Link, Received};
 use super::modes::{CopterMode, Px4Mode};
 
@@ -102,7 +103,7 @@ pub struct SimVehicleOptions {
     /// Simulated seconds per step of the kinematics.
     pub step: f64,
     /// Where it stands at boot (and its home).
-    pub home: Geodetic,
+    pub home: Wgs84,
     /// Where the EKF origin lies from home (real EKFs set it at the first
     /// fix, rarely exactly where the copter stands when it arms).
     pub ekf_origin_offset: Ned,
@@ -141,7 +142,7 @@ impl Default for SimVehicleOptions {
             speed: 1.0,
             step: 0.02,
             // ArduPilot SITL's default location (CMAC, Canberra).
-            home: Geodetic::new(-35.363_261, 149.165_230, 584.0),
+            home: Wgs84::new(-35.363_261, 149.165_230, 584.0),
             ekf_origin_offset: Ned::default(),
             rc_mode_switch_at: None,
             refuse_arming: None,
@@ -821,7 +822,7 @@ impl Vehicle {
                 })
             }
             24 => {
-                let here = self.o.home.offset(Ned::from_mission(self.kin.position()));
+                let here = LocalFrame::new(self.o.home).to_wgs84(self.kin.position());
                 let (lat, lon, alt) = here.to_e7();
                 MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
                     time_usec: (self.time * 1e6) as u64,
@@ -845,7 +846,7 @@ impl Vehicle {
                     return None;
                 }
                 let p = self.kin.position();
-                let here = self.o.home.offset(Ned::from_mission(p));
+                let here = LocalFrame::new(self.o.home).to_wgs84(p);
                 let (lat, lon, alt) = here.to_e7();
                 MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
                     time_boot_ms: self.boot_ms(),
