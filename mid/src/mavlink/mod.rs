@@ -1,6 +1,6 @@
 //! Flying MAVLink autopilots (ArduPilot copters in GUIDED, PX4 in OFFBOARD):
-//! the adapter the executor drives, and a MAVLink vehicle built on the
-//! simulator for tests.
+//! the adapter the executor drives. The MAVLink vehicle that imitates them
+//! in tests is a crate of its own, `eamos-vehicle`.
 //!
 //! The pieces are kept apart so that each can be tested on its own:
 //!
@@ -16,8 +16,6 @@
 //! - [`state`]: the vehicle as the ground station sees it, folded from
 //!   incoming messages.
 //! - [`adapter`]: [`MavlinkAdapter`], the [`crate::Adapter`] over all of it.
-//! - [`vehicle`]: [`SimVehicle`], the simulator's kinematics behind a
-//!   MAVLink endpoint that behaves like an ArduPilot copter, or like PX4.
 
 pub mod adapter;
 pub mod address;
@@ -26,16 +24,11 @@ pub mod link;
 pub mod modes;
 pub mod readiness;
 pub mod state;
-pub mod vehicle;
-
-#[cfg(test)]
-mod flight_tests;
 
 pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use address::ConnectAddress;
 pub use command::CommandError;
 pub use readiness::{Missing, NotReady, Readiness};
-pub use vehicle::{Firmware, SimVehicle, SimVehicleOptions};
 
 /// The dialect every connection speaks: ardupilotmega includes common.
 pub use mavlink::dialects::ardupilotmega as dialect;

@@ -10,20 +10,20 @@ use std::time::Duration;
 use mavlink::MavHeader;
 use tokio::time::timeout;
 
-use super::adapter::{MavlinkAdapter, MavlinkOptions};
-use super::address::ConnectAddress;
-use super::command::{command_long, CommandError, CommandPolicy, Target};
-use super::dialect::MavMessage;
-use super::dialect::{
+use eamos_geo::{LocalFrame, Ned};
+use eamos_mid::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
+use eamos_mid::log::{AdapterEvent, LogRecord, MemorySink};
+use eamos_mid::mavlink::adapter::{MavlinkAdapter, MavlinkOptions};
+use eamos_mid::mavlink::address::ConnectAddress;
+use eamos_mid::mavlink::command::{command_long, CommandError, CommandPolicy, Target};
+use eamos_mid::mavlink::dialect::MavMessage;
+use eamos_mid::mavlink::dialect::{
     MavCmd, MavFrame, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
-use super::link::Link;
-use super::modes::{Autopilot, CopterMode, Px4Mode};
-use super::readiness::Missing;
-use super::vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
-use crate::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
-use crate::log::{AdapterEvent, LogRecord, MemorySink};
-use eamos_geo::{LocalFrame, Ned};
+use eamos_mid::mavlink::link::Link;
+use eamos_mid::mavlink::modes::{Autopilot, CopterMode, Px4Mode};
+use eamos_mid::mavlink::readiness::Missing;
+use eamos_vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
 
 /// Long enough for any action here on a loaded machine.
 const BOUND: Duration = Duration::from_secs(90);
