@@ -15,6 +15,8 @@
 //! - [`readiness`]: what an autopilot must report before it may be armed.
 //! - [`state`]: the vehicle as the ground station sees it, folded from
 //!   incoming messages.
+//! - [`strategy`]: what differs between ArduPilot and PX4, one small
+//!   strategy each.
 //! - [`adapter`]: [`MavlinkAdapter`], the [`crate::Adapter`] over all of it.
 
 pub mod adapter;
@@ -24,6 +26,7 @@ pub mod link;
 pub mod modes;
 pub mod readiness;
 pub mod state;
+pub mod strategy;
 
 pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use address::ConnectAddress;
