@@ -1,7 +1,7 @@
-//! `eamos-vehicle`: [`SimVehicle`], the simulator's multirotor behind a MAVLink 2 endpoint
-//! that behaves like an ArduPilot copter in the ways a ground station
-//! notices, so that the adapter (and any other MAVLink client) can be
-//! tested without ArduPilot's SITL.
+//! `eamos-vehicle`: [`SimVehicle`], the simulator's multirotor behind a
+//! MAVLink 2 endpoint that behaves like an ArduPilot copter in the ways a
+//! ground station notices, so that the adapter (and any other MAVLink
+//! client) can be tested without ArduPilot's SITL.
 //!
 //! What it imitates, in simulated time (`speed` times real time):
 //! - Boot: STABILIZE, disarmed. Readiness comes in stages over
@@ -50,8 +50,6 @@
 //! On UDP it talks like SITL started with `--out`: from a port of its own
 //! to the ground station's (`udpout:`), answering whoever it hears; it can
 //! also listen (`udpin:`, `tcpin:` like SITL's `tcp:5760`).
-
-// SET_MODE and REQUEST_DATA_STREAM are deprecated in MAVLink, but
 //!
 //! Behind `eamos sim-vehicle` and the MAVLink adapter's flight tests. Its
 //! parts: [`options`] (how a vehicle is set up), [`handle`] (a running
