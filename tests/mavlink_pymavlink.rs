@@ -10,7 +10,7 @@ use std::net::UdpSocket;
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 
-use eamos_mid::mavlink::frame::{Geodetic, Ned};
+use eamos_geo::{LocalFrame, Vec3, Wgs84};
 use serde_json::Value;
 
 /// Kills the vehicle when the test ends, however it ends.
@@ -154,14 +154,12 @@ fn a_pymavlink_ground_station_flies_the_sim_vehicle_like_an_ardupilot_copter() {
     assert!((num(moved, &["z"]) + 3.0).abs() < 0.2, "{moved}");
 
     // The global position agrees with --home and the local offset.
-    let expected = Geodetic::parse(home)
-        .unwrap()
-        .offset(Ned::new(5.0, 2.0, -3.0));
+    let expected = LocalFrame::new(Wgs84::parse(home).unwrap()).to_wgs84(Vec3::new(5.0, 2.0, 3.0));
     let g = &report["global_after_move"];
-    let here = Geodetic::new(num(g, &["lat"]), num(g, &["lon"]), expected.alt);
-    let off = expected.ned_to(here);
+    let here = Wgs84::new(num(g, &["lat"]), num(g, &["lon"]), expected.alt);
+    let off = LocalFrame::new(expected).to_local(here);
     assert!(
-        off.north.abs() < 0.3 && off.east.abs() < 0.3,
+        off.x.abs() < 0.3 && off.y.abs() < 0.3,
         "{g} is {off:?} from {expected:?}"
     );
     assert!((num(g, &["relative_alt"]) - 3.0).abs() < 0.3, "{g}");

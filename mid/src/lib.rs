@@ -10,8 +10,9 @@
 //! - [`log`]: records of the uniform and adapter logs.
 //! - [`sim`]: the built-in simulator ([`SimFleet`], [`SimDrone`]) and its
 //!   multirotor kinematics.
-//! - [`mavlink`]: the MAVLink adapter (ArduPilot, PX4) and a MAVLink
-//!   vehicle on the simulator for tests.
+//! - [`mavlink`]: the MAVLink adapter (ArduPilot, PX4). The MAVLink vehicle
+//!   that imitates them in tests is the `eamos-vehicle` crate, built on
+//!   [`sim::kinematics`].
 
 pub mod api;
 pub mod clock;

@@ -1,6 +1,6 @@
 //! `eamos sim-vehicle`: a simulated copter behind a MAVLink 2 endpoint that
 //! behaves like an ArduPilot copter, or with `--autopilot px4` like PX4
-//! (see `eamos_mid::mavlink::vehicle`), for trying a fleet file, a ground
+//! (see the `eamos-vehicle` crate), for trying a fleet file, a ground
 //! station or a script without SITL.
 //!
 //! By default it talks like SITL started with `--out`: from a port of its
@@ -12,8 +12,9 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use eamos_mid::mavlink::frame::Geodetic;
-use eamos_mid::mavlink::{ConnectAddress, Firmware, SimVehicle, SimVehicleOptions};
+use eamos_geo::Wgs84;
+use eamos_mid::mavlink::ConnectAddress;
+use eamos_vehicle::{Firmware, SimVehicle, SimVehicleOptions};
 
 /// Whose behaviour the vehicle imitates.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -91,7 +92,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(a) => a,
         Err(e) => return bad_input(&format!("--connect: {e}")),
     };
-    let home = match Geodetic::parse(&args.home) {
+    let home = match Wgs84::parse(&args.home) {
         Ok(h) => h,
         Err(e) => return bad_input(&format!("--home: {e}")),
     };

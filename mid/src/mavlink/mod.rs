@@ -1,6 +1,6 @@
 //! Flying MAVLink autopilots (ArduPilot copters in GUIDED, PX4 in OFFBOARD):
-//! the adapter the executor drives, and a MAVLink vehicle built on the
-//! simulator for tests.
+//! the adapter the executor drives. The MAVLink vehicle that imitates them
+//! in tests is a crate of its own, `eamos-vehicle`.
 //!
 //! The pieces are kept apart so that each can be tested on its own:
 //!
@@ -12,33 +12,26 @@
 //!   a refusal turned into a typed [`command::CommandError`].
 //! - [`modes`]: the autopilots' custom flight modes (ArduCopter, PX4) and
 //!   how they map onto the middle layer's [`crate::FlightMode`].
-//! - [`frame`]: the mission frame (X north, Y east, Z up) against MAVLink's
-//!   local NED frame, and geodetic offsets.
 //! - [`readiness`]: what an autopilot must report before it may be armed.
 //! - [`state`]: the vehicle as the ground station sees it, folded from
 //!   incoming messages.
+//! - [`strategy`]: what differs between ArduPilot and PX4, one small
+//!   strategy each.
 //! - [`adapter`]: [`MavlinkAdapter`], the [`crate::Adapter`] over all of it.
-//! - [`vehicle`]: [`SimVehicle`], the simulator's kinematics behind a
-//!   MAVLink endpoint that behaves like an ArduPilot copter, or like PX4.
 
 pub mod adapter;
 pub mod address;
 pub mod command;
-pub mod frame;
 pub mod link;
 pub mod modes;
 pub mod readiness;
 pub mod state;
-pub mod vehicle;
-
-#[cfg(test)]
-mod flight_tests;
+pub mod strategy;
 
 pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use address::ConnectAddress;
 pub use command::CommandError;
 pub use readiness::{Missing, NotReady, Readiness};
-pub use vehicle::{Firmware, SimVehicle, SimVehicleOptions};
 
 /// The dialect every connection speaks: ardupilotmega includes common.
 pub use mavlink::dialects::ardupilotmega as dialect;

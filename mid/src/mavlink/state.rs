@@ -15,9 +15,9 @@ use mavlink::MavHeader;
 
 use super::command::Target;
 use super::dialect::{MavAutopilot, MavLandedState, MavMessage, MavModeFlag, MavState, MavType};
-use super::frame::{Geodetic, Ned};
 use super::modes::Autopilot;
 use super::readiness::Readiness;
+use eamos_geo::{Ned, Wgs84};
 
 /// The autopilot's heartbeat, decoded.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,7 +45,7 @@ pub struct VehicleState {
     /// Heartbeats received from the target: mode confirmation counts them.
     pub heartbeats: u64,
     pub local: Option<LocalPosition>,
-    pub global: Option<Geodetic>,
+    pub global: Option<Wgs84>,
     /// Battery charge in percent, where the autopilot knows it.
     pub battery: Option<f64>,
     pub landed_state: Option<MavLandedState>,
@@ -156,7 +156,7 @@ impl VehicleState {
                 });
             }
             MavMessage::GLOBAL_POSITION_INT(g) => {
-                self.global = Some(Geodetic::from_e7(g.lat, g.lon, g.alt));
+                self.global = Some(Wgs84::from_e7(g.lat, g.lon, g.alt));
             }
             MavMessage::SYS_STATUS(s) if s.battery_remaining >= 0 => {
                 self.battery = Some(f64::from(s.battery_remaining));

@@ -10,20 +10,20 @@ use std::time::Duration;
 use mavlink::MavHeader;
 use tokio::time::timeout;
 
-use super::adapter::{MavlinkAdapter, MavlinkOptions};
-use super::address::ConnectAddress;
-use super::command::{command_long, CommandError, CommandPolicy, Target};
-use super::dialect::MavMessage;
-use super::dialect::{
+use eamos_geo::{LocalFrame, Ned};
+use eamos_mid::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
+use eamos_mid::log::{AdapterEvent, LogRecord, MemorySink};
+use eamos_mid::mavlink::adapter::{MavlinkAdapter, MavlinkOptions};
+use eamos_mid::mavlink::address::ConnectAddress;
+use eamos_mid::mavlink::command::{command_long, CommandError, CommandPolicy, Target};
+use eamos_mid::mavlink::dialect::MavMessage;
+use eamos_mid::mavlink::dialect::{
     MavCmd, MavFrame, PositionTargetTypemask, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
-use super::frame::Ned;
-use super::link::Link;
-use super::modes::{Autopilot, CopterMode, Px4Mode};
-use super::readiness::Missing;
-use super::vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
-use crate::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
-use crate::log::{AdapterEvent, LogRecord, MemorySink};
+use eamos_mid::mavlink::link::Link;
+use eamos_mid::mavlink::modes::{Autopilot, CopterMode, Px4Mode};
+use eamos_mid::mavlink::readiness::Missing;
+use eamos_vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
 
 /// Long enough for any action here on a loaded machine.
 const BOUND: Duration = Duration::from_secs(90);
@@ -505,7 +505,7 @@ async fn a_fleet_origin_puts_the_home_where_the_gps_says() {
         |_| {},
         |a| {
             let home = SimVehicleOptions::default().home;
-            a.fleet_origin = Some(home.offset(Ned::new(-10.0, 4.0, 0.0)));
+            a.fleet_origin = Some(LocalFrame::new(home).to_wgs84(Vec3::new(-10.0, 4.0, 0.0)));
         },
     )
     .await;

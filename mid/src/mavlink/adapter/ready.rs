@@ -1,0 +1,241 @@
+//! Before flight: the first heartbeat, readiness, the mission frame's
+//! anchor, and flight modes set and confirmed.
+
+use std::time::Duration;
+
+use tokio::time::{sleep_until, Instant};
+
+use eamos_geo::LocalFrame;
+
+use crate::api::{ActionError, CancellationToken};
+use crate::mavlink::dialect::MavCmd;
+use crate::mavlink::modes::ModeRole;
+
+use super::shared::{Check, Halt, Shared};
+use super::tasks::OFFBOARD_LEAD;
+use crate::mavlink::readiness::NotReady;
+
+impl Shared {
+    /// Waits for the autopilot's heartbeat.
+    pub(super) async fn heard(
+        &self,
+        action: &str,
+        cancel: &CancellationToken,
+    ) -> Result<(), ActionError> {
+        let deadline = Instant::now() + self.options.ready_timeout;
+        self.wait(deadline, cancel, |w| {
+            if w.vehicle.heartbeat.is_some() {
+                Check::Done(())
+            } else {
+                Check::Pending
+            }
+        })
+        .await
+        .map_err(|h| {
+            self.halt_error(action, h, || {
+                format!(
+                    "a heartbeat from the autopilot on {} ({} s)",
+                    self.address,
+                    self.options.ready_timeout.as_secs()
+                )
+            })
+        })
+    }
+
+    /// Waits until the vehicle is ready to arm, writing a progress line
+    /// whenever what is missing changes (and every 10 s), and sets the
+    /// mission frame's anchor the first time.
+    pub(super) async fn ready_wait(
+        &self,
+        action: &str,
+        deadline: Instant,
+        cancel: &CancellationToken,
+    ) -> Result<(), ActionError> {
+        let started = Instant::now();
+        let mut last_line = String::new();
+        loop {
+            // Wake at least every 10 s to repeat the line while nothing
+            // changes, so a long wait does not look like a hang.
+            let slice_end = deadline.min(Instant::now() + Duration::from_secs(10));
+            let outcome = self
+                .wait(slice_end, cancel, |w| {
+                    let r = &w.vehicle.readiness;
+                    if r.is_ready() {
+                        return Check::Done(None);
+                    }
+                    let line = r.progress_line();
+                    if line != last_line {
+                        return Check::Done(Some(line));
+                    }
+                    Check::Pending
+                })
+                .await;
+            match outcome {
+                Ok(None) => {
+                    self.set_anchor();
+                    return Ok(());
+                }
+                Ok(Some(line)) => {
+                    last_line = line;
+                    self.note(format!(
+                        "not ready yet ({} s): {last_line}",
+                        started.elapsed().as_secs()
+                    ));
+                }
+                Err(Halt::Timeout) if Instant::now() < deadline => {
+                    self.note(format!(
+                        "not ready yet ({} s): {last_line}",
+                        started.elapsed().as_secs()
+                    ));
+                }
+                Err(halt) => {
+                    let missing = self.watched.borrow().vehicle.readiness.missing();
+                    return Err(self.halt_error(action, halt, || {
+                        NotReady {
+                            waited: started.elapsed(),
+                            missing,
+                        }
+                        .to_string()
+                    }));
+                }
+            }
+        }
+    }
+
+    /// Fixes the mission frame on the ground point where the vehicle stands
+    /// the first time it is ready, and its home in the fleet frame.
+    pub(super) fn set_anchor(&self) {
+        let w = self.watched.borrow().clone();
+        let mut frame = self.frame.lock().unwrap_or_else(|p| p.into_inner());
+        if frame.anchor.is_some() {
+            return;
+        }
+        let Some(local) = w.vehicle.local else { return };
+        frame.anchor = Some(local.position);
+        let mut detail = format!(
+            "ready; the mission frame's origin is N {:.2} E {:.2} D {:.2} in the EKF frame",
+            local.position.north, local.position.east, local.position.down
+        );
+        if let (Some(origin), Some(here)) = (self.options.fleet_origin, w.vehicle.global) {
+            frame.home = LocalFrame::new(origin).to_local(here);
+            detail.push_str(&format!(
+                "; home in the fleet frame {} from GPS {:.7}, {:.7}",
+                frame.home, here.lat, here.lon
+            ));
+        }
+        drop(frame);
+        self.note(detail);
+        self.publish_telemetry();
+    }
+
+    /// Puts the autopilot in the mode for `role` and confirms from two
+    /// further heartbeats that it stayed there: right after boot an RC mode
+    /// switch may overwrite a mode set from the ground.
+    pub(super) async fn ensure_mode(
+        &self,
+        action: &str,
+        role: ModeRole,
+        cancel: &CancellationToken,
+    ) -> Result<(), ActionError> {
+        let strategy = self.flyable(action)?;
+        let autopilot = strategy.autopilot();
+        let wanted = autopilot
+            .mode_for(role)
+            .expect("a flyable autopilot has every mode the adapter uses");
+        let name = autopilot.mode_name(wanted);
+        if self.watched.borrow().vehicle.custom_mode() == Some(wanted) {
+            return Ok(());
+        }
+        if role == ModeRole::Guided && strategy.streams_setpoints() {
+            self.start_offboard_stream(action).await?;
+        }
+        let mut overridden_by = None;
+        for _ in 0..3 {
+            self.command(
+                action,
+                MavCmd::MAV_CMD_DO_SET_MODE,
+                autopilot.set_mode_params(wanted),
+            )
+            .await?;
+            // The mode must show in a heartbeat and stay for two more. A
+            // switch that overrides it may come before any heartbeat shows
+            // it: two heartbeats in another mode after the ACK count as
+            // overridden too.
+            let acked_at = self.watched.borrow().vehicle.heartbeats;
+            let mut seen_at = None;
+            let deadline = Instant::now() + Duration::from_secs(8);
+            let held = self
+                .wait(deadline, cancel, |w| {
+                    let v = &w.vehicle;
+                    match v.custom_mode() {
+                        Some(m) if m == wanted => {
+                            let at = *seen_at.get_or_insert(v.heartbeats);
+                            if v.heartbeats >= at + 2 {
+                                return Check::Done(None);
+                            }
+                        }
+                        Some(m) if seen_at.is_some() || v.heartbeats >= acked_at + 2 => {
+                            return Check::Done(Some(m));
+                        }
+                        _ => {}
+                    }
+                    Check::Pending
+                })
+                .await
+                .map_err(|h| {
+                    self.halt_error(action, h, || format!("heartbeats confirming {name}"))
+                })?;
+            match held {
+                None => {
+                    self.note(format!("mode {name} set and confirmed"));
+                    return Ok(());
+                }
+                Some(other) => {
+                    let other = autopilot.mode_name(other);
+                    self.note(format!(
+                        "the autopilot left {name} for {other} right after it was set (an RC mode switch?); setting it again"
+                    ));
+                    overridden_by = Some(other);
+                }
+            }
+        }
+        Err(ActionError::failed(
+            action,
+            format!(
+                "the autopilot would not stay in {name}: it switched to {} each time (is an RC mode switch or a failsafe overriding it?)",
+                overridden_by.unwrap_or_default()
+            ),
+        ))
+    }
+
+    /// PX4 enters OFFBOARD only with setpoints already streaming: streams
+    /// the last target, or the point where the drone is, and lets the
+    /// stream run for a moment before the mode switch.
+    pub(super) async fn start_offboard_stream(&self, action: &str) -> Result<(), ActionError> {
+        let since = {
+            let mut stream = self.offboard.lock().unwrap_or_else(|p| p.into_inner());
+            match *stream {
+                Some((_, since)) => since,
+                None => {
+                    let here = self.watched.borrow().vehicle.local.map(|l| l.position);
+                    let here = here.ok_or_else(|| {
+                        ActionError::failed(
+                            action,
+                            "no local position to stream as an OFFBOARD setpoint",
+                        )
+                    })?;
+                    let now = Instant::now();
+                    *stream = Some((here, now));
+                    now
+                }
+            }
+        };
+        sleep_until(since + OFFBOARD_LEAD).await;
+        Ok(())
+    }
+
+    /// Stops streaming OFFBOARD setpoints (landed, disarmed).
+    pub(super) fn stop_offboard_stream(&self) {
+        *self.offboard.lock().unwrap_or_else(|p| p.into_inner()) = None;
+    }
+}
