@@ -56,6 +56,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use serde::Deserialize;
+use sha3::{Digest, Sha3_256};
 
 use eamos_mid::mavlink::{ConnectAddress, MavlinkSettings};
 use eamos_mid::sim::kinematics::MultirotorConfig;
@@ -63,6 +64,7 @@ use eamos_mid::sim::script::Script;
 use eamos_mid::sim::{SimConfig, SimDroneSpec};
 use eamos_mid::{Failsafe, Vec3};
 
+use crate::canonical::{canonical_json, hex};
 use crate::liveness::{Grace, Liveness, OnLost};
 use crate::transport::zenoh::ZenohOptions;
 use crate::transport::GCS;
@@ -325,7 +327,7 @@ impl Fleet {
             })?;
         }
         fleet.check_tls(name, drones)?;
-        fleet.digest = crate::identity::fleet_digest(text);
+        fleet.digest = fleet_digest(text);
         Ok(fleet)
     }
 
@@ -434,6 +436,21 @@ fn drone_location(text: &str, name: &str, drone: &str) -> String {
     let line = before.matches('\n').count() + 1;
     let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
     format!("{name}:{line}:{column}")
+}
+
+/// The digest of a fleet file's text in canonical form (the TOML read as
+/// values, written back as canonical JSON): layout, comments, key order and
+/// quoting style do not count; every value does. Text that is not TOML is
+/// hashed as it is (such a file never gets as far as a mission).
+pub fn fleet_digest(text: &str) -> String {
+    let canonical = match toml::from_str::<toml::Table>(text) {
+        Ok(table) => match serde_json::to_value(&table) {
+            Ok(v) => canonical_json(&v),
+            Err(_) => text.to_string(),
+        },
+        Err(_) => text.to_string(),
+    };
+    hex(&Sha3_256::digest(canonical.as_bytes()))
 }
 
 /// Where a drone the fleet file does not place starts: the drones of a

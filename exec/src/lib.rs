@@ -2,6 +2,7 @@
 //! through the middle layer and passing tokens over bridges (in-process
 //! channels or zenoh).
 //!
+//! - [`names`]: peer and control-bridge names every module shares.
 //! - [`transport`]: links between peers and exactly-once bridges over them.
 //! - [`liveness`]: who is up, who is lost, and what a drone waiting on a
 //!   lost peer does (its fleet's policy).
@@ -18,6 +19,7 @@
 //! - [`svg`]: the plot of every drone's path.
 
 pub mod abort;
+mod canonical;
 pub mod deploy;
 pub mod executor;
 pub mod fleet;
@@ -26,6 +28,7 @@ pub mod identity;
 pub mod journal;
 pub mod liveness;
 pub mod log;
+pub mod names;
 pub mod runner;
 pub mod svg;
 pub mod transport;

@@ -33,7 +33,7 @@ use eamos_mid::Failsafe;
 use eamos_petri::net::Colour;
 use eamos_slicer::Slice;
 
-use crate::transport::PeerId;
+use crate::names::PeerId;
 
 /// What a drone does once a peer it waits on has been lost for the grace
 /// period.
