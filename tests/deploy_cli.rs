@@ -15,10 +15,10 @@ use serde_json::Value;
 
 use eamos_exec::abort::{self, AbortCommand};
 use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
-use eamos_exec::fleet::Fleet;
 use eamos_exec::runner::{self, RunOptions};
 use eamos_exec::transport::GCS;
 use eamos_exec::Outcome;
+use eamos_fleet::Fleet;
 use eamos_seal::{GroundKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
 use eamos_slicer::Slices;
 
@@ -176,9 +176,8 @@ impl Rig {
         let profiles = eamos_mid::profiles::builtin();
         let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
         let net = eamos_petri::compile(&m, &profiles);
-        let mut slices = eamos_slicer::slice(&net).unwrap();
-        let fleet = Fleet::load(&self.fleet, &slices.mission, &net.drones).unwrap();
-        eamos_exec::identity::bind(&mut slices, &fleet);
+        let fleet = Fleet::load(&self.fleet, &net.name, &net.drones).unwrap();
+        let slices = eamos_fleet::identity::slice(&net, &fleet).unwrap();
         (slices, fleet)
     }
 

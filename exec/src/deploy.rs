@@ -24,7 +24,7 @@
 //! command for another version of the mission than the slice it holds.
 //!
 //! Partial redeployment: an agent reports the digest of the slice it holds
-//! ([`crate::identity::slice_digest`]); a drone whose new slice has the same
+//! ([`eamos_fleet::identity::slice_digest`]); a drone whose new slice has the same
 //! digest is not sent anything, and the start command binds the slice it
 //! keeps to the new mission identity. The start command lists every drone's
 //! digest, so an agent holding any other slice refuses to start.
@@ -62,9 +62,10 @@ use eamos_seal::{GroundKey, PublicKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
 use crate::abort;
 use eamos_slicer::{Slice, Slices};
 
+use eamos_fleet::identity::{fleet_version, slice_digest};
+use eamos_fleet::{loopback_port, Fleet};
+
 use crate::executor::Outcome;
-use crate::fleet::{loopback_port, Fleet};
-use crate::identity::{fleet_version, slice_digest};
 use crate::runner::{self, RunOptions, RunReport};
 use crate::transport::zenoh::{config, ZenohOptions};
 use crate::transport::GCS;
@@ -246,14 +247,13 @@ async fn open_session(options: &ZenohOptions) -> Result<Session, DeployError> {
         .map_err(|e| DeployError::Open(e.to_string()))
 }
 
-/// The ground station's public key named by the fleet file, relative to
-/// the fleet file's directory.
-pub fn trusted_key(fleet: &Fleet, fleet_path: Option<&Path>) -> Result<Option<PublicKey>, String> {
-    let Some(p) = &fleet.keys.gcs else {
+/// The ground station's public key named by the fleet file (its path
+/// resolved when the file was read).
+pub fn trusted_key(fleet: &Fleet) -> Result<Option<PublicKey>, String> {
+    let Some(path) = &fleet.keys.gcs else {
         return Ok(None);
     };
-    let path = resolve(fleet_path, p);
-    PublicKey::load(&path)
+    PublicKey::load(path)
         .map(Some)
         .map_err(|e| format!("[keys] gcs: {e}"))
 }
@@ -263,18 +263,14 @@ pub fn trusted_key(fleet: &Fleet, fleet_path: Option<&Path>) -> Result<Option<Pu
 /// A fleet that names a public key needs the matching secret key, or every
 /// agent would refuse what the ground station sends: that is an error
 /// here, before anything is sent.
-pub fn ground_key(
-    fleet: &Fleet,
-    fleet_path: Option<&Path>,
-    explicit: Option<&Path>,
-) -> Result<Option<GroundKey>, String> {
+pub fn ground_key(fleet: &Fleet, explicit: Option<&Path>) -> Result<Option<GroundKey>, String> {
     let path = match (explicit, &fleet.keys.gcs) {
         (Some(k), _) => k.to_path_buf(),
-        (None, Some(public)) => resolve(fleet_path, public).with_extension("key"),
+        (None, Some(public)) => public.with_extension("key"),
         (None, None) => return Ok(None),
     };
     let key = GroundKey::load(&path).map_err(|e| e.to_string())?;
-    if let Some(trusted) = trusted_key(fleet, fleet_path)? {
+    if let Some(trusted) = trusted_key(fleet)? {
         if trusted != key.public() {
             return Err(format!(
                 "{} is the secret key of {}, but the fleet file trusts {}: the agents would refuse whatever it signs",
@@ -287,36 +283,16 @@ pub fn ground_key(
     Ok(Some(key))
 }
 
-/// A path of the fleet file, relative to its directory.
-pub fn resolve(fleet_path: Option<&Path>, p: &Path) -> PathBuf {
-    match fleet_path.and_then(Path::parent) {
-        Some(dir) if p.is_relative() => dir.join(p),
-        _ => p.to_path_buf(),
-    }
-}
-
-/// Reads an agent's fleet file before any mission is known: checked
-/// against the drones it names itself; against the mission's drones once a
-/// slice says which they are.
-pub fn agent_fleet(text: &str, name: &str) -> Result<Fleet, crate::fleet::FleetError> {
-    let named: Vec<String> = toml::from_str::<toml::Table>(text)
-        .ok()
-        .and_then(|t| t.get("drones").and_then(|d| d.as_table()).cloned())
-        .map(|d| d.keys().cloned().collect())
-        .unwrap_or_default();
-    Fleet::parse(text, name, "the fleet", &named)
-}
-
 // ---------------------------------------------------------------- agent --
 
 /// How an agent runs.
 pub struct AgentConfig {
     pub drone: String,
-    /// The fleet file's text and name: read again against the mission's
-    /// drones once a slice says which they are.
-    pub fleet_text: String,
+    /// What errors call the fleet file.
     pub fleet_name: String,
-    /// The fleet as read before any mission is known.
+    /// The fleet as read before any mission is known
+    /// ([`Fleet::load_unbound`]): checked against the mission's drones
+    /// once a slice says which they are.
     pub fleet: Fleet,
     /// Slices and commands must be signed by this key when given.
     pub trusted: Option<PublicKey>,
@@ -484,19 +460,23 @@ pub enum Offer {
 /// refusal can be tested without a network.
 pub struct Gate {
     pub drone: String,
-    pub fleet_text: String,
+    /// The agent's fleet, read before any mission was known.
+    pub fleet: Fleet,
     pub fleet_name: String,
-    pub fleet_digest: String,
     pub trusted: Option<PublicKey>,
 }
 
 impl Gate {
+    fn fleet_digest(&self) -> String {
+        fleet_version(&self.fleet)
+    }
+
     fn wrong_fleet(&self, theirs: &str) -> String {
         format!(
             "wrong mission version: it was built with another fleet file (digest {}) than this agent's {} (digest {}); give the ground station and every agent the same fleet file",
             short(theirs),
             self.fleet_name,
-            short(&self.fleet_digest)
+            short(&self.fleet_digest())
         )
     }
 
@@ -513,7 +493,7 @@ impl Gate {
             .open_with(self.trusted.as_ref(), CONTEXT_SLICE)
             .map_err(|e| e.to_string())?;
         let bundle = SliceBundle::from_bytes(payload)?;
-        if bundle.fleet != self.fleet_digest {
+        if bundle.fleet != self.fleet_digest() {
             return Err(self.wrong_fleet(&bundle.fleet));
         }
         check_session(&bundle.session)?;
@@ -559,13 +539,10 @@ impl Gate {
                 bundle.digest
             ));
         }
-        let fleet = Fleet::parse(
-            &self.fleet_text,
-            &self.fleet_name,
-            &slice.mission,
-            &slice.drones,
-        )
-        .map_err(|e| e.to_string())?;
+        self.fleet
+            .check_mission(&self.fleet_name, &slice.mission, &slice.drones)
+            .map_err(|e| e.to_string())?;
+        let fleet = self.fleet.clone();
         Ok(Offer::New {
             slice: Box::new(slice),
             digest,
@@ -587,7 +564,7 @@ impl Gate {
             .open_with(self.trusted.as_ref(), CONTEXT_START)
             .map_err(|e| e.to_string())?;
         let start = StartCommand::from_bytes(payload)?;
-        if start.fleet != self.fleet_digest {
+        if start.fleet != self.fleet_digest() {
             return Err(self.wrong_fleet(&start.fleet));
         }
         check_session(&start.session)?;
@@ -680,9 +657,8 @@ pub async fn run_agent(
     let session = open_session(&options).await?;
     let gate = Arc::new(Gate {
         drone: config.drone.clone(),
-        fleet_text: config.fleet_text.clone(),
+        fleet: config.fleet.clone(),
         fleet_name: config.fleet_name.clone(),
-        fleet_digest: fleet_version(&config.fleet),
         trusted: config.trusted.clone(),
     });
     std::fs::create_dir_all(&config.out)
@@ -730,7 +706,7 @@ pub async fn run_agent(
                     let s = state.lock().expect("agent state");
                     AgentStatus {
                         drone: config.drone.clone(),
-                        fleet: gate.fleet_digest.clone(),
+                        fleet: gate.fleet_digest(),
                         trusts: gate.trusted.as_ref().map(PublicKey::fingerprint),
                         holds: s.held.as_ref().map(HeldSlice::held),
                         flying: s.flying.clone(),
@@ -1123,7 +1099,6 @@ pub async fn fly_ground_station(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identity::bind;
 
     const MISSION: &str = "package M\n\nvar D1 Quadcopter\nvar D2 Quadcopter\n\nfunc main() {\n\tD1.Takeoff(2)\n\tD2.Takeoff(2)\n}\n";
     const FLEET: &str = "[drones.D1]\nhome = { x = 0.0, y = 0.0, z = 0.0 }\n";
@@ -1133,9 +1108,7 @@ mod tests {
         let profiles = eamos_mid::profiles::builtin();
         let compiled = eamos_lang::compile(&source, &profiles).unwrap();
         let net = eamos_petri::compile(&compiled.mission, &profiles);
-        let mut s = eamos_slicer::slice(&net).unwrap();
-        bind(&mut s, fleet);
-        s
+        eamos_fleet::identity::slice(&net, fleet).unwrap()
     }
 
     fn fleet(text: &str) -> Fleet {
@@ -1145,9 +1118,8 @@ mod tests {
     fn gate(drone: &str, text: &str, trusted: Option<PublicKey>) -> Gate {
         Gate {
             drone: drone.into(),
-            fleet_text: text.into(),
+            fleet: Fleet::parse_unbound(text, "fleet.toml").unwrap(),
             fleet_name: "fleet.toml".into(),
-            fleet_digest: fleet_version(&fleet(text)),
             trusted,
         }
     }

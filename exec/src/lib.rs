@@ -11,20 +11,15 @@
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
 //! - [`log`]: the per-drone mission, uniform and adapter logs.
-//! - [`fleet`]: the fleet file (adapters, homes, endpoints).
-//! - [`identity`]: the mission identity (mission and fleet) and slice digests.
 //! - [`deploy`]: the roll-out: agents waiting for their signed slice, and the
 //!   ground station sending each drone its part.
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
 
 pub mod abort;
-mod canonical;
 pub mod deploy;
 pub mod executor;
-pub mod fleet;
 pub mod guard;
-pub mod identity;
 pub mod journal;
 pub mod liveness;
 pub mod log;

@@ -9,8 +9,8 @@
 /// A peer of the mission: a drone name, or [`GCS`].
 pub type PeerId = String;
 
-/// The peer name of the ground station.
-pub const GCS: &str = "GCS";
+/// The peer name of the ground station (the fleet file names it too).
+pub use eamos_fleet::GCS;
 
 /// The bridge name of the "mission has ended" notice.
 pub const END: &str = "end";

@@ -22,7 +22,6 @@ use eamos_slicer::Slices;
 
 use crate::abort::{CommandOpener, CommandSealer};
 use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
-use crate::fleet::{AdapterKind, Fleet};
 use crate::journal::{self, AgentJournal, JournalError};
 use crate::liveness::Liveness;
 use crate::log::{DroneLog, LogWriter};
@@ -30,6 +29,7 @@ use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
 use crate::transport::{zenoh, Endpoint, TransportError, GCS};
+use eamos_fleet::{AdapterKind, Fleet};
 
 /// Which link the peers of a one-process run talk over.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -51,7 +51,7 @@ pub fn run(args: Args) -> ExitCode {
             Ok(m) => m,
             Err(status) => return status,
         };
-    let sealer = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
+    let sealer = match deploy::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k.map(|k| abort::sealer(Arc::new(k))),
         Err(e) => return bad_input(&format!("cannot sign the abort: {e}")),
     };

@@ -93,7 +93,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
-    let key = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
+    let key = match deploy::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),
     };

@@ -445,7 +445,7 @@ async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_r
     let s = slices("experiment_b.go");
     let dir = tempfile::tempdir().unwrap();
     let options = run_options(dir.path());
-    let fleet = crate::fleet::Fleet::default();
+    let fleet = eamos_fleet::Fleet::default();
     let profiles = eamos_mid::profiles::builtin();
     let report = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
         .await
@@ -697,7 +697,7 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         );
         first.spawn(async move {
             let profiles = eamos_mid::profiles::builtin();
-            let _ = run_fleet(&s, &crate::fleet::Fleet::default(), &profiles, &options).await;
+            let _ = run_fleet(&s, &eamos_fleet::Fleet::default(), &profiles, &options).await;
         });
     }
     loop {
@@ -732,7 +732,7 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
     let report = again
         .block_on(run_fleet(
             &s,
-            &crate::fleet::Fleet::default(),
+            &eamos_fleet::Fleet::default(),
             &eamos_mid::profiles::builtin(),
             &options,
         ))

@@ -1,7 +1,9 @@
 //! One text per value: the canonical JSON that the fleet digest and the
-//! slice digest hash, so that layout and key order never change a digest.
+//! slice digest hash, so that layout, comments and key order never change
+//! a digest.
 
 use serde_json::Value;
+use sha3::{Digest, Sha3_256};
 
 pub(crate) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
@@ -43,6 +45,21 @@ fn write_canonical(v: &Value, out: &mut String) {
         }
         other => out.push_str(&other.to_string()),
     }
+}
+
+/// The digest of a fleet file's text in canonical form (the TOML read as
+/// values, written back as canonical JSON): layout, comments, key order and
+/// quoting style do not count; every value does. Text that is not TOML is
+/// hashed as it is (such a file never gets as far as a mission).
+pub fn fleet_digest(text: &str) -> String {
+    let canonical = match toml::from_str::<toml::Table>(text) {
+        Ok(table) => match serde_json::to_value(&table) {
+            Ok(v) => canonical_json(&v),
+            Err(_) => text.to_string(),
+        },
+        Err(_) => text.to_string(),
+    };
+    hex(&Sha3_256::digest(canonical.as_bytes()))
 }
 
 #[cfg(test)]
