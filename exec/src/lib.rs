@@ -11,13 +11,14 @@
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
 //! - [`log`]: the per-drone mission, uniform and adapter logs.
-//! - [`deploy`]: the roll-out: agents waiting for their signed slice, and the
-//!   ground station sending each drone its part.
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
+//!
+//! It reads the fleet as `eamos-fleet` gives it and never parses a fleet
+//! file or resolves a path itself; it never knows how a slice reached its
+//! drone (that is the roll-out's, `eamos-rollout`, which sits above it).
 
 pub mod abort;
-pub mod deploy;
 pub mod executor;
 pub mod guard;
 pub mod journal;

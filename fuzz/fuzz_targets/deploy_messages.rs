@@ -10,7 +10,7 @@
 use std::sync::OnceLock;
 
 use eamos_exec::abort::{self, AbortCommand, CommandOpener};
-use eamos_exec::deploy::{AgentStatus, Answer, Gate, Held, Sessions, SliceBundle, StartCommand};
+use eamos_rollout::{AgentStatus, Answer, Gate, Held, Sessions, SliceBundle, StartCommand};
 use eamos_fleet::Fleet;
 use eamos_seal::{PublicKey, Sealed, CONTEXT_ABORT, CONTEXT_SLICE, CONTEXT_START};
 use libfuzzer_sys::fuzz_target;

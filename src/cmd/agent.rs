@@ -15,8 +15,8 @@ use std::process::ExitCode;
 
 use tokio::sync::mpsc;
 
-use eamos_exec::deploy::{self, AgentConfig, AgentEvent, CancellationToken};
 use eamos_fleet::Fleet;
+use eamos_rollout::{self as rollout, AgentConfig, AgentEvent, CancellationToken};
 
 /// Wait on a drone's companion computer for its slice, then fly it.
 #[derive(clap::Args)]
@@ -48,7 +48,7 @@ pub fn run(args: Args) -> ExitCode {
         },
         None => (Fleet::default(), "(no fleet file)".to_string()),
     };
-    let trusted = match deploy::trusted_key(&fleet) {
+    let trusted = match rollout::trusted_key(&fleet) {
         Ok(k) => k,
         Err(e) => return bad_input(&format!("{name}: {e}")),
     };
@@ -104,7 +104,7 @@ pub fn run(args: Args) -> ExitCode {
             }
             completed
         });
-        let r = deploy::run_agent(config, tx, stop).await;
+        let r = rollout::run_agent(config, tx, stop).await;
         let completed = printer.await.unwrap_or(false);
         r.map(|()| completed)
     });

@@ -113,7 +113,7 @@ pub fn run(args: Args) -> ExitCode {
     };
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
-    let abort_opener = match eamos_exec::deploy::trusted_key(&fleet) {
+    let abort_opener = match eamos_rollout::trusted_key(&fleet) {
         Ok(key) => key.map(eamos_exec::abort::opener),
         Err(e) => return bad_input(&e),
     };
@@ -184,7 +184,13 @@ pub fn run(args: Args) -> ExitCode {
         });
         let display = tokio::spawn(show_progress(progress_rx, action_counts(&slices, &shown)));
         let result = match &peer {
-            Some(p) => runner::run_peer(&slices, &fleet, &profiles, p, &options).await,
+            Some(p) => match slices.get(p) {
+                Some(slice) => runner::run_peer(slice, &fleet, &profiles, &options).await,
+                None => Err(runner::RunError::UnknownPeer(
+                    p.clone(),
+                    runner::peers(&slices).join(", "),
+                )),
+            },
             None => runner::run_fleet(&slices, &fleet, &profiles, &options).await,
         };
         drop(options);
