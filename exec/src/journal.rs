@@ -786,4 +786,4 @@ pub fn pause_began(p: &Paused, simulated: bool, now: f64, wall_now_ms: u64) -> f
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

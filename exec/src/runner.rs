@@ -633,3 +633,6 @@ pub async fn run_peer(
         log_errors,
     })
 }
+
+#[cfg(test)]
+mod tests;
