@@ -639,6 +639,33 @@ connection = "/dev/ttyUSB0:57600"
     }
 
     #[test]
+    fn every_path_is_resolved_against_the_fleet_files_directory_once_when_it_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        std::fs::write(
+            &file,
+            "[keys]\ngcs = \"keys/gcs.pub\"\n[zenoh.tls]\nca = \"ca.pem\"\ncertificate = \"all.pem\"\nkey = \"all.key\"\n[drones.D1]\n",
+        )
+        .unwrap();
+        let bound = Fleet::load(&file, "M", &drones()).unwrap();
+        let unbound = Fleet::load_unbound(&file).unwrap();
+        for f in [&bound, &unbound] {
+            assert_eq!(f.keys.gcs, Some(dir.path().join("keys/gcs.pub")));
+            assert_eq!(
+                f.tls_files("D1").unwrap().certificate,
+                dir.path().join("all.pem")
+            );
+        }
+        // A fleet read before its mission is checked against it later.
+        unbound.check_mission("fleet.toml", "M", &drones()).unwrap();
+        let e = unbound
+            .check_mission("fleet.toml", "M", &["D2".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("D1") && e.contains("D2"), "{e}");
+    }
+
+    #[test]
     fn an_unknown_policy_or_a_bad_grace_period_is_reported_with_its_line() {
         for (text, what) in [
             ("[drones.D1]\non_lost = \"panic\"\n", "panic"),
