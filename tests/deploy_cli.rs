@@ -14,11 +14,11 @@ use assert_cmd::cargo::CommandCargoExt;
 use serde_json::Value;
 
 use eamos_exec::abort::{self, AbortCommand};
-use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
-use eamos_exec::fleet::Fleet;
 use eamos_exec::runner::{self, RunOptions};
 use eamos_exec::transport::GCS;
 use eamos_exec::Outcome;
+use eamos_fleet::Fleet;
+use eamos_rollout::{self as rollout, Answer, Delivery, RollOut};
 use eamos_seal::{GroundKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
 use eamos_slicer::Slices;
 
@@ -176,9 +176,8 @@ impl Rig {
         let profiles = eamos_mid::profiles::builtin();
         let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
         let net = eamos_petri::compile(&m, &profiles);
-        let mut slices = eamos_slicer::slice(&net).unwrap();
-        let fleet = Fleet::load(&self.fleet, &slices.mission, &net.drones).unwrap();
-        eamos_exec::identity::bind(&mut slices, &fleet);
+        let fleet = Fleet::load(&self.fleet, &net.name, &net.drones).unwrap();
+        let slices = eamos_fleet::identity::slice(&net, &fleet).unwrap();
         (slices, fleet)
     }
 
@@ -716,7 +715,7 @@ fn a_recorded_offer_and_start_played_back_after_the_flight_are_refused_even_by_a
         }
         r.close().await;
         let profiles = eamos_mid::profiles::builtin();
-        let report = deploy::fly_ground_station(&slices, &fleet, &profiles, &run)
+        let report = rollout::fly_ground_station(&slices, &fleet, &profiles, &run)
             .await
             .unwrap();
         assert_eq!(report.reports[0].outcome, Outcome::Completed);

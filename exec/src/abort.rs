@@ -1,7 +1,7 @@
 //! Aborting a mission: every running action is cancelled and every drone
 //! goes to its abort failsafe, each exactly once.
 //!
-//! An abort travels on the `abort` control bridge ([`crate::executor::ABORT`]),
+//! An abort travels on the `abort` control bridge ([`crate::names::ABORT`]),
 //! delivered exactly once per sender like any token, and every drone that
 //! accepts one passes it on to every other peer: a drone that cannot hear
 //! the ground station still hears the abort from any peer that can. Two
@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use eamos_petri::net::Colour;
 
-use crate::executor::ABORT;
+use crate::names::ABORT;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
 use crate::transport::zenoh::{self, ZenohOptions};
 use crate::transport::{PeerId, TransportError};

@@ -46,10 +46,7 @@ use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
 /// adapter's, not the mission's, business).
 const CANCEL_SETTLE: Duration = Duration::from_secs(10);
 
-/// The bridge name of the "mission has ended" notice.
-pub const END: &str = "end";
-/// The bridge name of the "a drone failed, land" notice.
-pub const ABORT: &str = "abort";
+pub use crate::names::{ABORT, END};
 
 mod failsafe;
 

@@ -59,8 +59,7 @@ use eamos_mid::{
 use eamos_petri::net::{Colour, TransitionKind};
 use eamos_slicer::Slice;
 
-use crate::executor::{ABORT, END};
-use crate::transport::PeerId;
+use crate::names::{PeerId, ABORT, END};
 
 /// One record of the journal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -787,4 +786,4 @@ pub fn pause_began(p: &Paused, simulated: bool, now: f64, wall_now_ms: u64) -> f
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -2,6 +2,7 @@
 //! through the middle layer and passing tokens over bridges (in-process
 //! channels or zenoh).
 //!
+//! - [`names`]: peer and control-bridge names every module shares.
 //! - [`transport`]: links between peers and exactly-once bridges over them.
 //! - [`liveness`]: who is up, who is lost, and what a drone waiting on a
 //!   lost peer does (its fleet's policy).
@@ -10,22 +11,20 @@
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
 //! - [`log`]: the per-drone mission, uniform and adapter logs.
-//! - [`fleet`]: the fleet file (adapters, homes, endpoints).
-//! - [`identity`]: the mission identity (mission and fleet) and slice digests.
-//! - [`deploy`]: the roll-out: agents waiting for their signed slice, and the
-//!   ground station sending each drone its part.
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
+//!
+//! It reads the fleet as `eamos-fleet` gives it and never parses a fleet
+//! file or resolves a path itself; it never knows how a slice reached its
+//! drone (that is the roll-out's, `eamos-rollout`, which sits above it).
 
 pub mod abort;
-pub mod deploy;
 pub mod executor;
-pub mod fleet;
 pub mod guard;
-pub mod identity;
 pub mod journal;
 pub mod liveness;
 pub mod log;
+pub mod names;
 pub mod runner;
 pub mod svg;
 pub mod transport;

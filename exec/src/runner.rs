@@ -18,11 +18,10 @@ use eamos_lang::SourceFile;
 use eamos_mid::mavlink::{MavlinkAdapter, MavlinkOptions};
 use eamos_mid::{Adapter, Airframe, MissionClock, SimDrone, SimFleet, Uniform, Vec3};
 use eamos_profile::ProfileTable;
-use eamos_slicer::Slices;
+use eamos_slicer::{Slice, Slices};
 
 use crate::abort::{CommandOpener, CommandSealer};
 use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
-use crate::fleet::{AdapterKind, Fleet};
 use crate::journal::{self, AgentJournal, JournalError};
 use crate::liveness::Liveness;
 use crate::log::{DroneLog, LogWriter};
@@ -30,6 +29,7 @@ use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
 use crate::transport::{zenoh, Endpoint, TransportError, GCS};
+use eamos_fleet::{AdapterKind, Fleet};
 
 /// Which link the peers of a one-process run talk over.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -132,8 +132,13 @@ pub struct RunReport {
 /// Every peer of a mission: the ground station, then the drones in the
 /// mission's order.
 pub fn peers(slices: &Slices) -> Vec<String> {
+    peers_of(&slices.distributed.drones)
+}
+
+/// The ground station, then `drones`.
+fn peers_of(drones: &[String]) -> Vec<String> {
     std::iter::once(GCS.to_string())
-        .chain(slices.distributed.drones.iter().cloned())
+        .chain(drones.iter().cloned())
         .collect()
 }
 
@@ -146,10 +151,13 @@ struct Built {
     sims: BTreeMap<String, SimDrone>,
 }
 
-/// Creates the adapters of `drones` (a subset of the mission's), each in
-/// its uniform layer, logging to `logs`.
+/// Creates the adapters of `drones` (a subset of the mission's drones
+/// `all`, whose profiles `profile_of` names), each in its uniform layer,
+/// logging to `logs`.
+#[allow(clippy::too_many_arguments)]
 async fn build_adapters(
-    slices: &Slices,
+    all: &[String],
+    profile_of: &(dyn Fn(&str) -> Option<String> + Sync),
     fleet: &Fleet,
     profiles: &ProfileTable,
     drones: &[String],
@@ -157,7 +165,6 @@ async fn build_adapters(
     logs: &LogWriter,
     airframes: &BTreeMap<String, Airframe>,
 ) -> Result<Built, RunError> {
-    let all = &slices.distributed.drones;
     let needs_sim = drones
         .iter()
         .any(|d| fleet.entry(d).adapter == AdapterKind::Sim);
@@ -178,12 +185,7 @@ async fn build_adapters(
     let mut sims = BTreeMap::new();
     for d in drones {
         let index = all.iter().position(|x| x == d).unwrap_or(0);
-        let profile_name = slices
-            .distributed
-            .profiles
-            .get(index)
-            .cloned()
-            .unwrap_or_else(|| "Quadcopter".to_string());
+        let profile_name = profile_of(d).unwrap_or_else(|| "Quadcopter".to_string());
         let profile = profiles
             .get(&profile_name)
             .cloned()
@@ -242,7 +244,7 @@ async fn build_adapters(
 
 /// The bridges of one peer, journaled when the run keeps a journal.
 fn start_bridges(
-    slices: &Slices,
+    mission_id: &str,
     link: Arc<dyn crate::transport::Link>,
     frames: mpsc::UnboundedReceiver<crate::transport::Frame>,
     options: &RunOptions,
@@ -253,30 +255,29 @@ fn start_bridges(
 ) {
     match journal {
         Some(j) => Bridges::start_journaled(
-            slices.mission_id.clone(),
+            mission_id.to_string(),
             link,
             frames,
             options.retransmit,
             j.journal.clone(),
             &j.recovered,
         ),
-        None => Bridges::start(slices.mission_id.clone(), link, frames, options.retransmit),
+        None => Bridges::start(mission_id.to_string(), link, frames, options.retransmit),
     }
 }
 
-/// Opens the journal of each peer in `peers`, when the run keeps one.
+/// Opens the journal of the peer of each of `slices`, when the run keeps
+/// one.
 fn open_journals(
-    slices: &Slices,
-    peers: &[String],
+    slices: &[Slice],
     options: &RunOptions,
 ) -> Result<BTreeMap<String, AgentJournal>, RunError> {
     let Some(dir) = &options.journal else {
         return Ok(BTreeMap::new());
     };
     let mut out = BTreeMap::new();
-    for p in peers {
-        let slice = slices.get(p).expect("every peer has a slice");
-        out.insert(p.clone(), journal::open_agent(dir, slice)?);
+    for slice in slices {
+        out.insert(slice.drone.clone(), journal::open_agent(dir, slice)?);
     }
     Ok(out)
 }
@@ -357,28 +358,27 @@ fn open_logs(
     })
 }
 
-/// Opens the link of one peer.
+/// Opens the link of the peer that runs `slice`, one of `all`.
 async fn endpoint(
-    slices: &Slices,
+    slice: &Slice,
+    all: &[String],
     fleet: &Fleet,
-    peer: &str,
     transport: TransportKind,
     hub: &InProcessHub,
     faults: Option<Faults>,
 ) -> Result<Endpoint, RunError> {
-    let slice = slices.get(peer).expect("every peer has a slice");
+    let peer = slice.drone.as_str();
     let reads = slice.telemetry.clone();
     let mut e = match transport {
         TransportKind::InProcess => hub.connect(peer, &reads),
         TransportKind::Zenoh => {
-            let all = peers(slices);
-            let opts = fleet.zenoh_options(&slices.mission_id, &all, peer);
-            zenoh::open(&slices.mission_id, peer, &reads, &opts).await?
+            let opts = fleet.zenoh_options(&slice.mission_id, all, peer);
+            zenoh::open(&slice.mission_id, peer, &reads, &opts).await?
         }
     };
     if let Some(f) = faults {
         // Each peer's faults differ but follow from the one seed.
-        let k = peers(slices).iter().position(|p| p == peer).unwrap_or(0) as u64;
+        let k = all.iter().position(|p| p == peer).unwrap_or(0) as u64;
         e.link = Arc::new(FaultyLink::new(
             e.link,
             Faults {
@@ -429,12 +429,12 @@ fn record_paths(
     paths
 }
 
-fn executor_options(slices: &Slices, options: &RunOptions) -> ExecutorOptions {
+fn executor_options(peers: Vec<String>, options: &RunOptions) -> ExecutorOptions {
     ExecutorOptions {
         max_duration: options.max_duration,
         startup_timeout: options.startup_timeout,
         flush_timeout: Duration::from_secs(10),
-        peers: peers(slices),
+        peers,
         source: options.source.clone(),
         progress: options.progress.clone(),
         stop: options.stop.clone(),
@@ -454,18 +454,19 @@ pub async fn run_fleet(
     options: &RunOptions,
 ) -> Result<RunReport, RunError> {
     let wall = Instant::now();
-    let journals = open_journals(slices, &peers(slices), options)?;
+    let journals = open_journals(&slices.slices, options)?;
     let logs = open_logs(options, &journals)?;
     // Links first: opening a zenoh peer takes a while, and the simulated
     // clock should not run meanwhile.
     let hub = InProcessHub::new();
+    let all = peers(slices);
     let mut endpoints = Vec::new();
-    for peer in peers(slices) {
+    for peer in &all {
         endpoints.push(
             endpoint(
-                slices,
+                slices.get(peer).expect("every peer has a slice"),
+                &all,
                 fleet,
-                &peer,
                 options.transport,
                 &hub,
                 options.faults,
@@ -476,8 +477,21 @@ pub async fn run_fleet(
     }
     let drones = slices.distributed.drones.clone();
     let airframes = recorded_airframes(&drones, &journals, options)?;
-    let built =
-        build_adapters(slices, fleet, profiles, &drones, options, &logs, &airframes).await?;
+    let profile_of = |d: &str| {
+        let index = drones.iter().position(|x| x == d)?;
+        slices.distributed.profiles.get(index).cloned()
+    };
+    let built = build_adapters(
+        &drones,
+        &profile_of,
+        fleet,
+        profiles,
+        &drones,
+        options,
+        &logs,
+        &airframes,
+    )
+    .await?;
     let paths_stop = CancellationToken::new();
     let paths = record_paths(&built.adapters, paths_stop.clone());
     record_airframes(&built.sims, options, paths_stop.clone());
@@ -486,7 +500,13 @@ pub async fn run_fleet(
     for (peer, e) in peers(slices).into_iter().zip(endpoints) {
         let slice = slices.get(&peer).expect("every peer has a slice").clone();
         let journal = journals.get(&peer);
-        let (b, delivered) = start_bridges(slices, e.link.clone(), e.frames, options, journal);
+        let (b, delivered) = start_bridges(
+            &slices.mission_id,
+            e.link.clone(),
+            e.frames,
+            options,
+            journal,
+        );
         let b = Arc::new(b);
         bridges.push(b.clone());
         let agent = Agent {
@@ -499,7 +519,7 @@ pub async fn run_fleet(
             telemetry: e.telemetry,
             log: logs.drone(&peer),
         };
-        let mut exec_options = executor_options(slices, options);
+        let mut exec_options = executor_options(all.clone(), options);
         exec_options.journal = journal.cloned();
         exec_options.liveness = fleet.liveness(&peer);
         let exec = Executor::new(agent, exec_options);
@@ -528,21 +548,20 @@ pub async fn run_fleet(
 }
 
 /// Runs one peer of the mission (`GCS` or a drone) over zenoh, as on that
-/// drone's own computer. The ground station holds the initial token: it
-/// starts the mission once its peers are up and follows it to the end.
+/// drone's own computer: the peer of `slice`, which names every peer of the
+/// mission and its own drone's profile, all this needs of the others. The
+/// ground station holds the initial token: it starts the mission once its
+/// peers are up and follows it to the end.
 pub async fn run_peer(
-    slices: &Slices,
+    slice: &Slice,
     fleet: &Fleet,
     profiles: &ProfileTable,
-    peer: &str,
     options: &RunOptions,
 ) -> Result<RunReport, RunError> {
     let wall = Instant::now();
-    let all = peers(slices);
-    if !all.iter().any(|p| p == peer) {
-        return Err(RunError::UnknownPeer(peer.to_string(), all.join(", ")));
-    }
-    let journals = open_journals(slices, &[peer.to_string()], options)?;
+    let peer = slice.drone.as_str();
+    let all = peers_of(&slice.drones);
+    let journals = open_journals(std::slice::from_ref(slice), options)?;
     let logs = open_logs(options, &journals)?;
     let drones: Vec<String> = if peer == GCS {
         Vec::new()
@@ -550,16 +569,26 @@ pub async fn run_peer(
         vec![peer.to_string()]
     };
     let airframes = recorded_airframes(&drones, &journals, options)?;
-    let built =
-        build_adapters(slices, fleet, profiles, &drones, options, &logs, &airframes).await?;
+    let profile_of = |d: &str| (d == peer).then(|| slice.profile.clone()).flatten();
+    let built = build_adapters(
+        &slice.drones,
+        &profile_of,
+        fleet,
+        profiles,
+        &drones,
+        options,
+        &logs,
+        &airframes,
+    )
+    .await?;
     let paths_stop = CancellationToken::new();
     let paths = record_paths(&built.adapters, paths_stop.clone());
     record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
     let e = endpoint(
-        slices,
+        slice,
+        &all,
         fleet,
-        peer,
         TransportKind::Zenoh,
         &hub,
         options.faults,
@@ -567,10 +596,16 @@ pub async fn run_peer(
     .await
     .map(|e| partitioned(e, options))?;
     let journal = journals.get(peer);
-    let (b, delivered) = start_bridges(slices, e.link.clone(), e.frames, options, journal);
+    let (b, delivered) = start_bridges(
+        &slice.mission_id,
+        e.link.clone(),
+        e.frames,
+        options,
+        journal,
+    );
     let b = Arc::new(b);
     let agent = Agent {
-        slice: slices.get(peer).expect("checked above").clone(),
+        slice: slice.clone(),
         drone: built.adapters.get(peer).cloned(),
         clock: built.clock.clone(),
         bridges: b.clone(),
@@ -579,7 +614,7 @@ pub async fn run_peer(
         telemetry: e.telemetry,
         log: logs.drone(peer),
     };
-    let mut exec_options = executor_options(slices, options);
+    let mut exec_options = executor_options(all, options);
     exec_options.journal = journal.cloned();
     exec_options.liveness = fleet.liveness(peer);
     let report = Executor::new(agent, exec_options).run().await;
@@ -598,3 +633,6 @@ pub async fn run_peer(
         log_errors,
     })
 }
+
+#[cfg(test)]
+mod tests;

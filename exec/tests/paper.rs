@@ -6,11 +6,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use eamos_exec::fleet::Fleet;
 use eamos_exec::log::{read_mission_log, MissionEvent, MissionRecord};
 use eamos_exec::runner::{run_fleet, RunOptions, RunReport, TransportKind};
 use eamos_exec::transport::faulty::Faults;
 use eamos_exec::Outcome;
+use eamos_fleet::Fleet;
 use eamos_lang::SourceFile;
 use eamos_slicer::Slices;
 

@@ -4,10 +4,10 @@
 
 use std::sync::Arc;
 
-use eamos_exec::fleet::Fleet;
 use eamos_exec::log::{read_mission_log, MissionEvent};
 use eamos_exec::runner::{run_fleet, RunOptions, TransportKind};
 use eamos_exec::Outcome;
+use eamos_fleet::Fleet;
 use eamos_lang::SourceFile;
 
 const MISSION: &str = r#"package Remote

@@ -9,9 +9,8 @@
 use std::sync::OnceLock;
 
 use eamos_exec::abort::{self, AbortCommand, CommandOpener};
-use eamos_exec::deploy::{AgentStatus, Answer, Gate, Held, Sessions, SliceBundle, StartCommand};
-use eamos_exec::fleet::Fleet;
-use eamos_exec::identity::fleet_version;
+use eamos_fleet::Fleet;
+use eamos_rollout::{AgentStatus, Answer, Gate, Held, Sessions, SliceBundle, StartCommand};
 use eamos_seal::{PublicKey, Sealed, CONTEXT_ABORT, CONTEXT_SLICE, CONTEXT_START};
 
 /// The ground station key that signed the seeds under
@@ -31,9 +30,8 @@ fn fixture() -> &'static Fixture {
         let key = PublicKey::from_pem(TRUSTED, "trusted.pub").expect("a valid key");
         let gate = |trusted: Option<PublicKey>| Gate {
             drone: "Drone1".into(),
-            fleet_text: String::new(),
+            fleet: Fleet::default(),
             fleet_name: "fleet.toml".into(),
-            fleet_digest: fleet_version(&Fleet::default()),
             trusted,
         };
         Fixture {

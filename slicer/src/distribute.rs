@@ -25,6 +25,7 @@ use crate::slice::{BridgeIn, BridgeOut, Produce, Slice, SliceTransition, GCS};
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Slices {
     pub mission: String,
+    /// The mission identity every slice carries (see [`slice_as`]).
     pub mission_id: String,
     pub slices: Vec<Slice>,
     /// The mission net after bundling, every node owned: cutting it along
@@ -53,9 +54,10 @@ pub(crate) fn owner_name(net: &Net, o: Owner) -> String {
     }
 }
 
-/// A hash of the mission's net: two slices belong to one mission exactly
-/// when their identities are equal.
-pub fn mission_id(net: &Net) -> String {
+/// A hash of the mission's net. It is not the mission identity (which
+/// also covers the fleet, see `eamos_fleet::identity`), only one input of
+/// it; [`slice`] names slices by it when no identity is given.
+pub fn net_id(net: &Net) -> String {
     // The compact form, streamed through a small buffer: a stress mission's
     // net is megabytes of it, and field-sized writes into the hash cost more
     // than the copy. SHA-256 rather than the SHA3 of the slice files: the
@@ -73,8 +75,17 @@ pub fn mission_id(net: &Net) -> String {
         .collect()
 }
 
-/// Slices a mission net: one slice for the ground station and one per drone.
+/// Slices a mission net: one slice for the ground station and one per
+/// drone, named by the net's hash ([`net_id`]): for tools and tests that
+/// have no fleet. A mission to fly is cut with [`slice_as`] under its
+/// identity.
 pub fn slice(net: &Net) -> Result<Slices, SliceError> {
+    slice_as(net, &net_id(net))
+}
+
+/// Slices a mission net under the mission identity `identity`, which every
+/// slice carries from birth.
+pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
     if let Some(name) = net.drones.iter().find(|d| *d == GCS) {
         return Err(SliceError::ReservedName(name.clone()));
     }
@@ -111,12 +122,11 @@ pub fn slice(net: &Net) -> Result<Slices, SliceError> {
     let owner = assignment.node_owners(&units);
     let bundles = plan_bundles(&work, &facts, &owner);
     let distributed = apply_bundles(&work, &owner, &bundles, end.as_ref());
-    let id = mission_id(net);
     let ends = end_owners(&distributed);
-    let slices = cut_all(&distributed, &owners, &id, &ends);
+    let slices = cut_all(&distributed, &owners, identity, &ends);
     Ok(Slices {
         mission: net.name.clone(),
-        mission_id: id,
+        mission_id: identity.to_string(),
         slices,
         distributed,
     })

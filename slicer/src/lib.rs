@@ -130,7 +130,7 @@ pub mod slice;
 pub mod stats;
 
 pub use codec::{FORMAT_VERSION, MAGIC};
-pub use distribute::{mission_id, slice, Slices};
+pub use distribute::{net_id, slice, slice_as, Slices};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};

@@ -45,8 +45,9 @@ pub const GCS: &str = "GCS";
 pub struct Slice {
     /// The mission (`package`) name.
     pub mission: String,
-    /// Identity of the mission: a hash of its net. Peers with another
-    /// identity run another mission and must not exchange tokens.
+    /// Identity of the mission, as given to [`crate::slice_as`] (the net's
+    /// hash when cut by [`crate::slice`]). Peers with another identity run
+    /// another mission and must not exchange tokens.
     pub mission_id: String,
     /// The drone (or [`GCS`]) that runs this slice.
     pub drone: String,

@@ -137,34 +137,28 @@ fn every_paper_mission_sliced_behaves_exactly_like_its_net() {
 }
 
 #[test]
-fn the_mission_identity_names_one_net_and_only_that_net() {
+fn the_net_hash_names_one_net_and_only_that_net() {
     let net = common::paper_net("experiment_c");
-    let id = eamos_slicer::mission_id(&net);
+    let id = eamos_slicer::net_id(&net);
     assert_eq!(id.len(), 64, "{id}");
     assert!(id
         .bytes()
         .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()));
     // The same mission compiled again is the same mission.
-    assert_eq!(
-        eamos_slicer::mission_id(&common::paper_net("experiment_c")),
-        id
-    );
+    assert_eq!(eamos_slicer::net_id(&common::paper_net("experiment_c")), id);
     // Every slice carries it.
     let s = slice(&net).unwrap();
     assert_eq!(s.mission_id, id);
     assert!(s.slices.iter().all(|slice| slice.mission_id == id));
     // Another mission, or this one with one label changed, is another.
-    assert_ne!(
-        eamos_slicer::mission_id(&common::paper_net("experiment_b")),
-        id
-    );
+    assert_ne!(eamos_slicer::net_id(&common::paper_net("experiment_b")), id);
     let mut edited = net.clone();
     let v = edited.graph.node_indices().next_back().unwrap();
     match &mut edited.graph[v] {
         eamos_petri::net::Node::Place(p) => p.label.push('\''),
         eamos_petri::net::Node::Transition(t) => t.label.push('\''),
     }
-    assert_ne!(eamos_slicer::mission_id(&edited), id);
+    assert_ne!(eamos_slicer::net_id(&edited), id);
 }
 
 #[test]

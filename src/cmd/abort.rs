@@ -17,7 +17,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use eamos_exec::abort::{self, AbortCommand};
-use eamos_exec::deploy;
+use eamos_rollout as rollout;
 
 use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner;
@@ -51,7 +51,7 @@ pub fn run(args: Args) -> ExitCode {
             Ok(m) => m,
             Err(status) => return status,
         };
-    let sealer = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
+    let sealer = match rollout::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k.map(|k| abort::sealer(Arc::new(k))),
         Err(e) => return bad_input(&format!("cannot sign the abort: {e}")),
     };

@@ -15,8 +15,8 @@ use std::process::ExitCode;
 
 use tokio::sync::mpsc;
 
-use eamos_exec::deploy::{self, AgentConfig, AgentEvent, CancellationToken};
-use eamos_exec::fleet::Fleet;
+use eamos_fleet::Fleet;
+use eamos_rollout::{self as rollout, AgentConfig, AgentEvent, CancellationToken};
 
 /// Wait on a drone's companion computer for its slice, then fly it.
 #[derive(clap::Args)]
@@ -41,19 +41,14 @@ fn bad_input(message: &str) -> ExitCode {
 }
 
 pub fn run(args: Args) -> ExitCode {
-    let (text, name) = match &args.fleet {
-        Some(p) => match std::fs::read_to_string(p) {
-            Ok(t) => (t, p.display().to_string()),
-            Err(e) => return bad_input(&format!("cannot read fleet file {}: {e}", p.display())),
+    let (fleet, name) = match &args.fleet {
+        Some(p) => match Fleet::load_unbound(p) {
+            Ok(f) => (f, p.display().to_string()),
+            Err(e) => return bad_input(&e.to_string()),
         },
-        None => (String::new(), "(no fleet file)".to_string()),
+        None => (Fleet::default(), "(no fleet file)".to_string()),
     };
-    let fleet = match deploy::agent_fleet(&text, &name) {
-        Ok(f) if args.fleet.is_some() => f,
-        Ok(_) => Fleet::default(),
-        Err(e) => return bad_input(&e.to_string()),
-    };
-    let trusted = match deploy::trusted_key(&fleet, args.fleet.as_deref()) {
+    let trusted = match rollout::trusted_key(&fleet) {
         Ok(k) => k,
         Err(e) => return bad_input(&format!("{name}: {e}")),
     };
@@ -83,7 +78,6 @@ pub fn run(args: Args) -> ExitCode {
     }
     let config = AgentConfig {
         drone: drone.clone(),
-        fleet_text: text,
         fleet_name: name,
         fleet,
         trusted,
@@ -110,7 +104,7 @@ pub fn run(args: Args) -> ExitCode {
             }
             completed
         });
-        let r = deploy::run_agent(config, tx, stop).await;
+        let r = rollout::run_agent(config, tx, stop).await;
         let completed = printer.await.unwrap_or(false);
         r.map(|()| completed)
     });

@@ -10,7 +10,7 @@
 //!
 //! Every deploy is a session of its own (a fresh random id in each signed
 //! offer and in the start): an agent never starts one session twice, so a
-//! recorded deploy played back is refused (see `eamos_exec::deploy`).
+//! recorded deploy played back is refused (see `eamos_rollout`).
 //!
 //! Prints one line per drone: `sent`, `unchanged` or `refused: <reason>`.
 //! Exit status: 0 the mission completed (or, with `--no-start`, every drone
@@ -23,7 +23,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
-use eamos_exec::deploy::{self, Answer, Delivery, RollOut};
+use eamos_rollout::{self as rollout, Answer, Delivery, RollOut};
 
 use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner::RunOptions;
@@ -93,7 +93,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
-    let key = match deploy::ground_key(&fleet, args.fleet.as_deref(), args.key.as_deref()) {
+    let key = match rollout::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),
     };
@@ -185,7 +185,7 @@ pub fn run(args: Args) -> ExitCode {
                 stop.cancel();
             }
         });
-        match deploy::fly_ground_station(&slices, &fleet, &profiles, &run).await {
+        match rollout::fly_ground_station(&slices, &fleet, &profiles, &run).await {
             Err(e) => bad_input(&e.to_string()),
             Ok(report) => {
                 let outcome = report.reports.first().map(|r| r.outcome.clone());

@@ -6,7 +6,7 @@
 use std::path::Path;
 use std::process::ExitCode;
 
-use eamos_exec::fleet::Fleet;
+use eamos_fleet::Fleet;
 use eamos_lang::{SourceFile, Style};
 use eamos_petri::net::Net;
 use eamos_profile::ProfileTable;
@@ -44,15 +44,16 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     let compiled =
         eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let mut slices = eamos_slicer::slice(&net)
-        .map_err(|e| bad_input(&format!("{name}: cannot slice the mission: {e}")))?;
     let fleet = match fleet {
-        Some(path) => Fleet::load(path, &slices.mission, &net.drones)
-            .map_err(|e| bad_input(&e.to_string()))?,
+        Some(path) => {
+            Fleet::load(path, &net.name, &net.drones).map_err(|e| bad_input(&e.to_string()))?
+        }
         None => Fleet::default(),
     };
-    // Peers built from another mission or fleet file refuse this one.
-    eamos_exec::identity::bind(&mut slices, &fleet);
+    // Cut under the identity of the net and the fleet: peers built from
+    // another mission or fleet file refuse these slices.
+    let slices = eamos_fleet::identity::slice(&net, &fleet)
+        .map_err(|e| bad_input(&format!("{name}: cannot slice the mission: {e}")))?;
     Ok(Mission {
         source,
         profiles,

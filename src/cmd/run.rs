@@ -113,18 +113,9 @@ pub fn run(args: Args) -> ExitCode {
     };
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
-    let abort_opener = match (&fleet.keys.gcs, &args.fleet) {
-        (Some(key), Some(fleet_path)) => {
-            let path = match fleet_path.parent() {
-                Some(dir) if key.is_relative() => dir.join(key),
-                _ => key.clone(),
-            };
-            match eamos_seal::PublicKey::load(&path) {
-                Ok(k) => Some(eamos_exec::abort::opener(k)),
-                Err(e) => return bad_input(&format!("[keys] gcs: {e}")),
-            }
-        }
-        _ => None,
+    let abort_opener = match eamos_rollout::trusted_key(&fleet) {
+        Ok(key) => key.map(eamos_exec::abort::opener),
+        Err(e) => return bad_input(&e),
     };
     let peer = match (&args.drone, args.gcs) {
         (Some(d), _) => {
@@ -193,7 +184,13 @@ pub fn run(args: Args) -> ExitCode {
         });
         let display = tokio::spawn(show_progress(progress_rx, action_counts(&slices, &shown)));
         let result = match &peer {
-            Some(p) => runner::run_peer(&slices, &fleet, &profiles, p, &options).await,
+            Some(p) => match slices.get(p) {
+                Some(slice) => runner::run_peer(slice, &fleet, &profiles, &options).await,
+                None => Err(runner::RunError::UnknownPeer(
+                    p.clone(),
+                    runner::peers(&slices).join(", "),
+                )),
+            },
             None => runner::run_fleet(&slices, &fleet, &profiles, &options).await,
         };
         drop(options);

@@ -216,7 +216,7 @@ fn a_journal_in_a_directory_that_cannot_be_made_is_an_error_naming_it() {
 
 // Replay over a real slice.
 
-fn slices(mission: &str) -> eamos_slicer::Slices {
+pub(crate) fn slices(mission: &str) -> eamos_slicer::Slices {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../shared/missions/paper")
         .join(mission);
@@ -416,113 +416,6 @@ fn an_airframe_record_reads_back_and_a_missing_one_is_none() {
     assert!(read_airframe(&path).is_err());
 }
 
-// Replay of a real run.
-
-fn run_options(dir: &Path) -> crate::runner::RunOptions {
-    crate::runner::RunOptions {
-        speed: 200.0,
-        max_duration: Some(600.0),
-        out: dir.join("logs"),
-        journal: Some(dir.join("journal")),
-        linger: std::time::Duration::ZERO,
-        ..crate::runner::RunOptions::default()
-    }
-}
-
-fn action_starts(dir: &Path, peer: &str) -> usize {
-    crate::log::read_mission_log(&dir.join("logs").join(format!("{peer}.mission.jsonl")))
-        .map(|log| {
-            log.iter()
-                .filter(|r| matches!(r.event, crate::log::MissionEvent::ActionStarted { .. }))
-                .count()
-        })
-        .unwrap_or(0)
-}
-
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_resuming_runs_nothing_again(
-) {
-    let s = slices("experiment_b.go");
-    let dir = tempfile::tempdir().unwrap();
-    let options = run_options(dir.path());
-    let fleet = crate::fleet::Fleet::default();
-    let profiles = eamos_mid::profiles::builtin();
-    let report = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
-        .await
-        .unwrap();
-    assert!(report
-        .reports
-        .iter()
-        .all(|r| r.outcome == crate::Outcome::Completed));
-
-    let mut marked = Vec::new();
-    for slice in &s.slices {
-        let path = Journal::path(&dir.path().join("journal"), &slice.drone);
-        let opened = Journal::open(&path, &slice.mission_id, &slice.drone).unwrap();
-        let r = replay(slice, "j", &opened.records).unwrap();
-        assert!(r.completed, "{}", slice.drone);
-        assert!(r.interrupted.is_empty() && r.not_started.is_empty());
-        let report = report
-            .reports
-            .iter()
-            .find(|x| x.drone == slice.drone)
-            .unwrap();
-        assert_eq!(r.started, report.started_actions, "{}", slice.drone);
-        assert_eq!(r.actions, report.actions, "{}", slice.drone);
-        assert_eq!(r.sent, report.sent, "{}", slice.drone);
-        assert_eq!(r.received, report.received, "{}", slice.drone);
-        for (p, tokens) in r.marking.iter().enumerate() {
-            assert!(tokens.len() <= 1, "1-safe");
-            if !tokens.is_empty() {
-                marked.push((
-                    slice.final_place == Some(p as u32),
-                    slice.places[p].id.clone(),
-                ));
-            }
-        }
-    }
-    // The final marking of the net: the final places, and event states.
-    let file = eamos_lang::SourceFile::new(
-        "experiment_b.go",
-        std::fs::read_to_string(
-            Path::new(env!("CARGO_MANIFEST_DIR"))
-                .join("../../shared/missions/paper/experiment_b.go"),
-        )
-        .unwrap(),
-    );
-    let profiles = eamos_mid::profiles::builtin();
-    let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
-    let net = eamos_petri::compile(&m, &profiles);
-    assert!(marked.iter().any(|(is_final, _)| *is_final), "{marked:?}");
-    for (is_final, id) in &marked {
-        let event = net
-            .places()
-            .any(|(_, p)| &p.id == id && p.kind.is_event_state());
-        assert!(*is_final || event, "{id} is still marked");
-    }
-
-    // Started again with the same journals: nothing runs twice.
-    let before: Vec<usize> = s
-        .slices
-        .iter()
-        .map(|x| action_starts(dir.path(), &x.drone))
-        .collect();
-    let again = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
-        .await
-        .unwrap();
-    assert!(again
-        .reports
-        .iter()
-        .all(|r| r.outcome == crate::Outcome::Completed));
-    let after: Vec<usize> = s
-        .slices
-        .iter()
-        .map(|x| action_starts(dir.path(), &x.drone))
-        .collect();
-    assert_eq!(before, after);
-    assert!(before.iter().sum::<usize>() > 0);
-}
-
 // Pauses, and the journal's format.
 
 const PAUSING: &str = "package Pausing
@@ -537,7 +430,7 @@ func SEQ_Mission() {
 }
 ";
 
-fn pausing() -> eamos_slicer::Slices {
+pub(crate) fn pausing() -> eamos_slicer::Slices {
     let file = eamos_lang::SourceFile::new("pausing.go", PAUSING);
     let profiles = eamos_mid::profiles::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
@@ -656,110 +549,4 @@ fn a_journal_of_format_1_without_a_format_number_is_read_as_it_was_written() {
         Journal::open(&path, "M-2", "D1"),
         Err(JournalError::Foreign { .. })
     ));
-}
-
-/// When `event` (the first match) happened in D1's mission log.
-fn logged_at(dir: &Path, what: impl Fn(&crate::log::MissionEvent) -> bool) -> Option<f64> {
-    crate::log::read_mission_log(&dir.join("logs").join("D1.mission.jsonl"))
-        .unwrap()
-        .into_iter()
-        .find(|r| what(&r.event))
-        .map(|r| r.time)
-}
-
-#[test]
-fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_rest_of_the_pause() {
-    use crate::log::MissionEvent;
-    use crate::runner::{run_fleet, RunOptions};
-
-    let dir = tempfile::tempdir().unwrap();
-    let options = RunOptions {
-        speed: 20.0,
-        ..run_options(dir.path())
-    };
-    let s = pausing();
-
-    // First flight, killed like `kill -9` a while into the pause: its
-    // runtime is torn down with every task in it, nothing runs to its end.
-    let first = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .unwrap();
-    let (progress, mut watch) = tokio::sync::mpsc::unbounded_channel();
-    {
-        let (s, options) = (
-            s.clone(),
-            RunOptions {
-                progress: Some(progress),
-                ..options.clone()
-            },
-        );
-        first.spawn(async move {
-            let profiles = eamos_mid::profiles::builtin();
-            let _ = run_fleet(&s, &crate::fleet::Fleet::default(), &profiles, &options).await;
-        });
-    }
-    loop {
-        let p = watch.blocking_recv().expect("the first flight reports");
-        if matches!(&p.what, crate::executor::ProgressKind::ActionFinished(a) if a.starts_with("Takeoff"))
-        {
-            break;
-        }
-    }
-    // 1 s of wall time is 20 s into the 60 s pause.
-    std::thread::sleep(std::time::Duration::from_secs(1));
-    first.shutdown_timeout(std::time::Duration::from_secs(5));
-    let began = logged_at(dir.path(), |e| {
-        matches!(e, MissionEvent::ActionFinished { action, .. } if action.starts_with("Takeoff"))
-    })
-    .unwrap();
-    assert!(
-        logged_at(
-            dir.path(),
-            |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause")
-        )
-        .is_none(),
-        "the first flight was killed before its pause was over"
-    );
-
-    // Started again from its journal.
-    let again = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .unwrap();
-    let report = again
-        .block_on(run_fleet(
-            &s,
-            &crate::fleet::Fleet::default(),
-            &eamos_mid::profiles::builtin(),
-            &options,
-        ))
-        .unwrap();
-    assert!(report
-        .reports
-        .iter()
-        .all(|r| r.outcome == crate::Outcome::Completed));
-    let resumed = logged_at(dir.path(), |e| matches!(e, MissionEvent::Resumed { .. })).unwrap();
-    let over = logged_at(
-        dir.path(),
-        |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause"),
-    )
-    .unwrap();
-    assert!(
-        resumed > began + 5.0,
-        "killed well into the pause: began {began}, resumed {resumed}"
-    );
-    // Over 60 s after it began, not 60 s after the restart; the slack is
-    // the simulator's: it goes on from its last recorded airframe.
-    assert!(
-        over >= began + 59.5 && over < resumed + 55.0,
-        "the pause began at {began}, the agent resumed at {resumed}, the pause ended at {over}"
-    );
-    assert_eq!(
-        action_starts(dir.path(), "D1"),
-        3,
-        "Arm, Takeoff, Land once each"
-    );
 }

@@ -26,11 +26,7 @@ pub mod inproc;
 pub mod reliable;
 pub mod zenoh;
 
-/// A peer of the mission: a drone name, or [`GCS`].
-pub type PeerId = String;
-
-/// The peer name of the ground station.
-pub const GCS: &str = "GCS";
+pub use crate::names::{PeerId, GCS};
 
 /// One token crossing a bridge.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

@@ -36,65 +36,35 @@ use zenoh::Session;
 
 use super::{Endpoint, Frame, FrameHandler, Link, PeerId, TelemetryFrame, TransportError};
 
-/// How one peer joins the zenoh network.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
-pub struct ZenohOptions {
-    /// Endpoints to listen on, as zenoh writes them (`tcp/127.0.0.1:7447`).
-    pub listen: Vec<String>,
-    /// Endpoints of the other peers.
-    pub connect: Vec<String>,
-    /// Find peers by multicast scouting as well (off by default).
-    pub scouting: bool,
-    /// TLS with mutual authentication; every endpoint must then be `tls/`.
-    pub tls: Option<TlsFiles>,
-}
+pub use eamos_fleet::zenoh::{TlsFiles, ZenohOptions};
 
-/// The files of one peer for TLS with mutual authentication (PEM).
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct TlsFiles {
-    /// The fleet's certificate authority: only peers whose certificate it
-    /// signed are let in, and only such peers are connected to.
-    pub ca: PathBuf,
-    /// This peer's certificate, presented when it listens and when it
-    /// connects (zenoh peers do both).
-    pub certificate: PathBuf,
-    /// The private key of `certificate`.
-    pub key: PathBuf,
-    /// Check that the certificate of a peer we connect to names the address
-    /// we connect to (its subject alternative names). Off only for fleets
-    /// whose addresses change (DHCP); the CA check stays on either way.
-    pub verify_name: bool,
-}
-
-impl TlsFiles {
-    /// Reads every file once before zenoh does, so that a missing file or
-    /// a key in the wrong place is reported with its path and what it was
-    /// meant to be, rather than as a handshake that never succeeds.
-    fn check(&self) -> Result<(), TransportError> {
-        for (what, path, marker) in [
-            ("CA certificate", &self.ca, "-----BEGIN CERTIFICATE-----"),
-            (
-                "certificate",
-                &self.certificate,
-                "-----BEGIN CERTIFICATE-----",
-            ),
-            ("private key", &self.key, "PRIVATE KEY-----"),
-        ] {
-            let text = std::fs::read(path).map_err(|e| {
-                TransportError::Config(format!(
-                    "cannot read the TLS {what} {}: {e}",
-                    path.display()
-                ))
-            })?;
-            if !String::from_utf8_lossy(&text).contains(marker) {
-                return Err(TransportError::Config(format!(
-                    "the TLS {what} {} is not a PEM {what} (no `{marker}` line)",
-                    path.display()
-                )));
-            }
+/// Reads every TLS file once before zenoh does, so that a missing file or
+/// a key in the wrong place is reported with its path and what it was
+/// meant to be, rather than as a handshake that never succeeds.
+fn check_tls(files: &TlsFiles) -> Result<(), TransportError> {
+    for (what, path, marker) in [
+        ("CA certificate", &files.ca, "-----BEGIN CERTIFICATE-----"),
+        (
+            "certificate",
+            &files.certificate,
+            "-----BEGIN CERTIFICATE-----",
+        ),
+        ("private key", &files.key, "PRIVATE KEY-----"),
+    ] {
+        let text = std::fs::read(path).map_err(|e| {
+            TransportError::Config(format!(
+                "cannot read the TLS {what} {}: {e}",
+                path.display()
+            ))
+        })?;
+        if !String::from_utf8_lossy(&text).contains(marker) {
+            return Err(TransportError::Config(format!(
+                "the TLS {what} {} is not a PEM {what} (no `{marker}` line)",
+                path.display()
+            )));
         }
-        Ok(())
     }
+    Ok(())
 }
 
 /// The key expression of `what` (`bridge`, `ack`, `telemetry`, `alive`) for
@@ -149,7 +119,7 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
                 "endpoint `{plain}` is not a TLS endpoint: with certificates every endpoint is `tls/HOST:PORT`"
             )));
         }
-        tls.check()?;
+        check_tls(tls)?;
         let path = |p: &PathBuf| json(&p.to_string_lossy());
         settings.extend([
             ("transport/link/protocols", "[\"tls\"]".to_string()),
@@ -535,7 +505,7 @@ async fn announce_version(
     me: &str,
     alive: Arc<Alive>,
 ) -> Result<Option<(LivelinessToken, Subscriber<()>)>, TransportError> {
-    let Some((name, version)) = crate::identity::split(mission) else {
+    let Some((name, version)) = eamos_fleet::identity::split(mission) else {
         return Ok(None);
     };
     let ours = version.to_string();
@@ -608,7 +578,7 @@ impl Alive {
     /// The first of `missing` that runs another version of `mission`.
     fn other_version(&self, mission: &str, missing: &[PeerId]) -> Option<TransportError> {
         let foreign = self.foreign.lock().expect("alive lock");
-        let (name, ours) = crate::identity::split(mission)?;
+        let (name, ours) = eamos_fleet::identity::split(mission)?;
         missing.iter().find_map(|p| {
             foreign.get(p).map(|theirs| TransportError::OtherVersion {
                 peer: p.clone(),

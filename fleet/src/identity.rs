@@ -9,6 +9,11 @@
 //! mix, while re-indenting the fleet file, reordering its keys or editing
 //! its comments changes nothing.
 //!
+//! The identity is computed once, from the net and the fleet, before the
+//! net is cut ([`slice`]): every slice is born carrying it, and nothing
+//! rewrites it afterwards. The slicer's own hash of the net
+//! ([`eamos_slicer::net_id`]) is one of its inputs, under its own name.
+//!
 //! The slice digest ([`slice_digest`]) is the other half of a roll-out: what
 //! a slice makes its drone do, without the identity (which changes with any
 //! edit anywhere in the mission or the fleet), without source spans (which
@@ -21,66 +26,13 @@
 use serde_json::Value;
 use sha3::{Digest, Sha3_256};
 
-use eamos_slicer::{Slice, Slices};
+use std::fmt;
 
-use crate::fleet::Fleet;
+use eamos_petri::net::Net;
+use eamos_slicer::{Slice, SliceError, Slices};
 
-fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// JSON with object keys sorted at every level and no whitespace: one text
-/// per value, whatever order its maps were built in.
-pub fn canonical_json(v: &Value) -> String {
-    let mut out = String::new();
-    write_canonical(v, &mut out);
-    out
-}
-
-fn write_canonical(v: &Value, out: &mut String) {
-    match v {
-        Value::Object(map) => {
-            let mut keys: Vec<&String> = map.keys().collect();
-            keys.sort();
-            out.push('{');
-            for (i, k) in keys.into_iter().enumerate() {
-                if i > 0 {
-                    out.push(',');
-                }
-                out.push_str(&Value::String(k.clone()).to_string());
-                out.push(':');
-                write_canonical(&map[k], out);
-            }
-            out.push('}');
-        }
-        Value::Array(items) => {
-            out.push('[');
-            for (i, item) in items.iter().enumerate() {
-                if i > 0 {
-                    out.push(',');
-                }
-                write_canonical(item, out);
-            }
-            out.push(']');
-        }
-        other => out.push_str(&other.to_string()),
-    }
-}
-
-/// The digest of a fleet file's text in canonical form (the TOML read as
-/// values, written back as canonical JSON): layout, comments, key order and
-/// quoting style do not count; every value does. Text that is not TOML is
-/// hashed as it is (such a file never gets as far as a mission).
-pub fn fleet_digest(text: &str) -> String {
-    let canonical = match toml::from_str::<toml::Table>(text) {
-        Ok(table) => match serde_json::to_value(&table) {
-            Ok(v) => canonical_json(&v),
-            Err(_) => text.to_string(),
-        },
-        Err(_) => text.to_string(),
-    };
-    hex(&Sha3_256::digest(canonical.as_bytes()))
-}
+use crate::canonical::{canonical_json, fleet_digest, hex};
+use crate::file::Fleet;
 
 /// The digest of a fleet as read: that of its file, or of an empty file
 /// when there is none (every drone simulated, loopback endpoints).
@@ -92,27 +44,46 @@ pub fn fleet_version(fleet: &Fleet) -> String {
     }
 }
 
-/// `<mission>-<version>`: the version is the first 96 bits of the hash of
-/// the net's identity (as the slicer computes it) and the fleet's digest.
-pub fn mission_identity(mission: &str, net_id: &str, fleet_digest: &str) -> String {
-    let mut h = Sha3_256::new();
-    h.update(b"eamos-mission/1\0");
-    h.update(net_id.as_bytes());
-    h.update([0]);
-    h.update(fleet_digest.as_bytes());
-    let digest = h.finalize();
-    format!("{mission}-{}", hex(&digest[..12]))
+/// The mission identity, `<mission>-<version>`: the version is the first
+/// 96 bits of the hash of the net's hash (as the slicer computes it) and
+/// the fleet's digest.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct MissionId(String);
+
+impl MissionId {
+    /// The identity of `mission` whose net hashes to `net_id`, flown with
+    /// the fleet whose digest is `fleet_digest`.
+    pub fn new(mission: &str, net_id: &str, fleet_digest: &str) -> MissionId {
+        let mut h = Sha3_256::new();
+        h.update(b"eamos-mission/1\0");
+        h.update(net_id.as_bytes());
+        h.update([0]);
+        h.update(fleet_digest.as_bytes());
+        let digest = h.finalize();
+        MissionId(format!("{mission}-{}", hex(&digest[..12])))
+    }
+
+    /// The identity of `net` flown with `fleet`.
+    pub fn of(net: &Net, fleet: &Fleet) -> MissionId {
+        MissionId::new(&net.name, &eamos_slicer::net_id(net), &fleet_version(fleet))
+    }
+
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
 }
 
-/// Scopes freshly cut slices by the mission identity of their net *and*
-/// fleet. Call once, right after slicing: the slicer's `mission_id` (the
-/// net's hash) is what it starts from.
-pub fn bind(slices: &mut Slices, fleet: &Fleet) {
-    let id = mission_identity(&slices.mission, &slices.mission_id, &fleet_version(fleet));
-    slices.mission_id = id.clone();
-    for s in &mut slices.slices {
-        s.mission_id = id.clone();
+impl fmt::Display for MissionId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
     }
+}
+
+/// Cuts `net` into slices scoped by the mission identity of the net *and*
+/// the fleet: a peer built from another mission or fleet file refuses
+/// them.
+pub fn slice(net: &Net, fleet: &Fleet) -> Result<Slices, SliceError> {
+    eamos_slicer::slice_as(net, MissionId::of(net, fleet).as_str())
 }
 
 /// The mission name and the version of an identity (`None` for an identity
@@ -155,12 +126,17 @@ fn strip_descriptions(v: &mut Value) {
 mod tests {
     use super::*;
 
-    fn slices(text: &str) -> Slices {
+    fn net(text: &str) -> eamos_petri::net::Net {
         let source = eamos_lang::SourceFile::new("m.go".to_string(), text.to_string());
         let profiles = eamos_mid::profiles::builtin();
         let compiled = eamos_lang::compile(&source, &profiles).expect("the mission checks");
-        let net = eamos_petri::compile(&compiled.mission, &profiles);
-        eamos_slicer::slice(&net).expect("the mission slices")
+        eamos_petri::compile(&compiled.mission, &profiles)
+    }
+
+    /// Slices named by their net alone, as the slicer cuts them without a
+    /// fleet.
+    fn slices(text: &str) -> Slices {
+        eamos_slicer::slice(&net(text)).expect("the mission slices")
     }
 
     const MISSION: &str = "package M\n\nvar D1 Quadcopter\nvar D2 Quadcopter\n\nfunc main() {\n\tD1.Takeoff(2)\n\tD2.Takeoff(2)\n}\n";
@@ -170,9 +146,10 @@ mod tests {
     }
 
     fn identity(mission: &str, fleet_text: &str) -> String {
-        let mut s = slices(mission);
-        bind(&mut s, &fleet(fleet_text));
+        let n = net(mission);
+        let s = slice(&n, &fleet(fleet_text)).expect("the mission slices");
         assert!(s.slices.iter().all(|x| x.mission_id == s.mission_id));
+        assert_eq!(s.mission_id, MissionId::of(&n, &fleet(fleet_text)).as_str());
         s.mission_id
     }
 
@@ -214,9 +191,16 @@ mod tests {
 
     #[test]
     fn no_fleet_file_and_an_empty_one_are_the_same_fleet() {
-        let mut s = slices(MISSION);
-        bind(&mut s, &Fleet::default());
+        let s = slice(&net(MISSION), &Fleet::default()).unwrap();
         assert_eq!(s.mission_id, identity(MISSION, ""));
+    }
+
+    #[test]
+    fn the_identity_is_not_the_nets_hash_and_names_the_mission() {
+        let n = net(MISSION);
+        let id = MissionId::of(&n, &Fleet::default());
+        assert_ne!(id.as_str(), eamos_slicer::net_id(&n));
+        assert_eq!(split(id.as_str()).unwrap().0, "M");
     }
 
     #[test]
@@ -230,8 +214,8 @@ mod tests {
         assert_ne!(d(&a, "D2"), d(&b, "D2"));
         assert_eq!(d(&a, "D1"), d(&c, "D1"));
         assert_eq!(d(&a, "D2"), d(&c, "D2"));
-        let mut bound = a.clone();
-        bind(&mut bound, &fleet("[sim]\nstep = 0.01\n"));
+        let bound = slice(&net(MISSION), &fleet("[sim]\nstep = 0.01\n")).unwrap();
+        assert_ne!(bound.mission_id, a.mission_id);
         assert_eq!(d(&a, "D1"), d(&bound, "D1"));
     }
 
@@ -243,15 +227,5 @@ mod tests {
         let d = |s: &Slices, who: &str| slice_digest(s.get(who).unwrap());
         assert_eq!(d(&a, "D1"), d(&b, "D1"));
         assert_ne!(d(&a, "D2"), d(&b, "D2"));
-    }
-
-    #[test]
-    fn canonical_json_sorts_keys_at_every_level() {
-        let v: Value =
-            serde_json::from_str(r#"{"b":1,"a":{"d":[{"z":1,"y":2}],"c":"x"}}"#).unwrap();
-        assert_eq!(
-            canonical_json(&v),
-            r#"{"a":{"c":"x","d":[{"y":2,"z":1}]},"b":1}"#
-        );
     }
 }

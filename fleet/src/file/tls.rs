@@ -30,8 +30,7 @@ use std::path::{Path, PathBuf};
 use serde::Deserialize;
 
 use super::{Fleet, FleetError};
-use crate::transport::zenoh::TlsFiles;
-use crate::transport::GCS;
+use crate::zenoh::{TlsFiles, GCS};
 
 /// `[zenoh.tls]`: the fleet's CA, and a certificate for every peer that
 /// does not name its own.

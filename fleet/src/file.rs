@@ -63,9 +63,8 @@ use eamos_mid::sim::script::Script;
 use eamos_mid::sim::{SimConfig, SimDroneSpec};
 use eamos_mid::{Failsafe, Vec3};
 
-use crate::liveness::{Grace, Liveness, OnLost};
-use crate::transport::zenoh::ZenohOptions;
-use crate::transport::GCS;
+use crate::canonical::fleet_digest;
+use crate::policy::{Grace, Liveness, OnLost};
 
 mod tls;
 pub use tls::{FleetTls, PeerTls};
@@ -86,7 +85,7 @@ pub struct Fleet {
     #[serde(default)]
     pub keys: KeySettings,
     /// Where `eamos deploy` and the agents meet before a mission exists
-    /// (see [`crate::deploy`]).
+    /// (see `eamos_rollout`).
     #[serde(default)]
     pub rollout: PeerNet,
     /// The digest of the file in canonical form, part of the mission
@@ -94,7 +93,7 @@ pub struct Fleet {
     #[serde(skip)]
     pub digest: String,
     /// What drones do when a peer they wait on is lost, and when the
-    /// mission is aborted: the fleet's defaults (see [`crate::liveness`]).
+    /// mission is aborted: the fleet's defaults (see [`crate::policy`]).
     #[serde(default)]
     pub failsafe: FailsafeSettings,
 }
@@ -121,7 +120,8 @@ pub struct FailsafeSettings {
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KeySettings {
-    /// The ground station's public key (PEM, relative to the fleet file;
+    /// The ground station's public key (PEM, relative to the fleet file,
+    /// resolved by [`Fleet::load`];
     /// `eamos keygen` writes one). When given, an agent runs only slices
     /// and obeys only commands that this key signed.
     #[serde(default)]
@@ -133,7 +133,7 @@ pub struct KeySettings {
 pub struct ZenohSettings {
     #[serde(default)]
     pub scouting: bool,
-    /// TLS with mutual authentication for every peer (see [`tls`]).
+    /// TLS with mutual authentication for every peer (see [`FleetTls`]).
     #[serde(default)]
     pub tls: Option<FleetTls>,
 }
@@ -146,7 +146,7 @@ pub struct PeerNet {
     pub listen: Vec<String>,
     #[serde(default)]
     pub connect: Vec<String>,
-    /// This peer's TLS certificate and key (see [`tls`]).
+    /// This peer's TLS certificate and key (see [`PeerTls`]).
     #[serde(default)]
     pub tls: Option<PeerTls>,
 }
@@ -252,15 +252,63 @@ pub enum FleetError {
 }
 
 impl Fleet {
-    /// Reads and checks a fleet file against the mission's drones.
+    /// Reads and checks a fleet file against the mission's drones. Every
+    /// path it names (certificates, keys) is made relative to the file's
+    /// directory here, once: nothing downstream resolves a path again.
     pub fn load(path: &Path, mission: &str, drones: &[String]) -> Result<Fleet, FleetError> {
-        let text = std::fs::read_to_string(path).map_err(|e| FleetError::Read {
-            path: path.display().to_string(),
-            error: e.to_string(),
-        })?;
+        let text = read(path)?;
         let mut fleet = Fleet::parse(&text, &path.display().to_string(), mission, drones)?;
-        fleet.resolve_tls_paths(path.parent().unwrap_or(Path::new(".")));
+        fleet.resolve_paths(path.parent().unwrap_or(Path::new(".")));
         Ok(fleet)
+    }
+
+    /// Reads an agent's fleet file before any mission is known: checked
+    /// against the drones it names itself (against the mission's drones
+    /// once a slice says which they are), its paths resolved as
+    /// [`Fleet::load`] does.
+    pub fn load_unbound(path: &Path) -> Result<Fleet, FleetError> {
+        let text = read(path)?;
+        let mut fleet = Fleet::parse_unbound(&text, &path.display().to_string())?;
+        fleet.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+        Ok(fleet)
+    }
+
+    /// Parses fleet text against the drones it names itself.
+    pub fn parse_unbound(text: &str, name: &str) -> Result<Fleet, FleetError> {
+        let named: Vec<String> = toml::from_str::<toml::Table>(text)
+            .ok()
+            .and_then(|t| t.get("drones").and_then(|d| d.as_table()).cloned())
+            .map(|d| d.keys().cloned().collect())
+            .unwrap_or_default();
+        Fleet::parse(text, name, "the fleet", &named)
+    }
+
+    /// Checks a fleet read before its mission was known
+    /// ([`Fleet::parse_unbound`]) against the mission's drones, as
+    /// [`Fleet::parse`] would have: every drone it names is one of them,
+    /// and with TLS every one of them has a certificate. `name` is what
+    /// errors call the file.
+    pub fn check_mission(
+        &self,
+        name: &str,
+        mission: &str,
+        drones: &[String],
+    ) -> Result<(), FleetError> {
+        if let Some(d) = self.drones.keys().find(|d| !drones.contains(d)) {
+            return Err(unknown_drone(name, mission, drones, d));
+        }
+        self.check_tls(name, drones)
+    }
+
+    /// Makes every relative path of the file relative to `base`, its
+    /// directory, rather than to wherever the command runs.
+    fn resolve_paths(&mut self, base: &Path) {
+        self.resolve_tls_paths(base);
+        if let Some(k) = &mut self.keys.gcs {
+            if k.is_relative() {
+                *k = base.join(&*k);
+            }
+        }
     }
 
     /// Parses fleet text; `name` is what errors call the file.
@@ -276,12 +324,7 @@ impl Fleet {
         })?;
         for (drone, entry) in &fleet.drones {
             if !drones.contains(drone) {
-                return Err(FleetError::UnknownDrone {
-                    path: name.to_string(),
-                    drone: drone.clone(),
-                    mission: mission.to_string(),
-                    known: drones.join(", "),
-                });
+                return Err(unknown_drone(name, mission, drones, drone));
             }
             let problem = |p: &str| FleetError::Drone {
                 path: drone_location(text, name, drone),
@@ -325,7 +368,7 @@ impl Fleet {
             })?;
         }
         fleet.check_tls(name, drones)?;
-        fleet.digest = crate::identity::fleet_digest(text);
+        fleet.digest = fleet_digest(text);
         Ok(fleet)
     }
 
@@ -367,53 +410,22 @@ impl Fleet {
             script: e.script,
         }
     }
+}
 
-    /// The listen endpoints of a peer (`GCS` or a drone).
-    pub fn listen(&self, mission_id: &str, peers: &[String], peer: &str) -> Vec<String> {
-        let given = if peer == GCS {
-            self.gcs.listen.clone()
-        } else {
-            self.entry(peer).zenoh.listen
-        };
-        if !given.is_empty() {
-            return given;
-        }
-        let k = peers.iter().position(|p| p == peer).unwrap_or(0);
-        let scheme = if self.zenoh.tls.is_some() {
-            "tls"
-        } else {
-            "tcp"
-        };
-        vec![format!(
-            "{scheme}/127.0.0.1:{}",
-            loopback_port(mission_id, k)
-        )]
+fn unknown_drone(name: &str, mission: &str, drones: &[String], drone: &str) -> FleetError {
+    FleetError::UnknownDrone {
+        path: name.to_string(),
+        drone: drone.to_string(),
+        mission: mission.to_string(),
+        known: drones.join(", "),
     }
+}
 
-    /// How `peer` joins zenoh: its listen endpoints, and the others' as
-    /// connect endpoints unless the file gives its own.
-    pub fn zenoh_options(&self, mission_id: &str, peers: &[String], peer: &str) -> ZenohOptions {
-        let connect_given = if peer == GCS {
-            self.gcs.connect.clone()
-        } else {
-            self.entry(peer).zenoh.connect
-        };
-        let connect = if connect_given.is_empty() {
-            peers
-                .iter()
-                .filter(|p| p.as_str() != peer)
-                .flat_map(|p| self.listen(mission_id, peers, p))
-                .collect()
-        } else {
-            connect_given
-        };
-        ZenohOptions {
-            listen: self.listen(mission_id, peers, peer),
-            connect,
-            scouting: self.zenoh.scouting,
-            tls: self.tls_files(peer),
-        }
-    }
+fn read(path: &Path) -> Result<String, FleetError> {
+    std::fs::read_to_string(path).map_err(|e| FleetError::Read {
+        path: path.display().to_string(),
+        error: e.to_string(),
+    })
 }
 
 /// `file:line:column` of a drone's table, for errors found after parsing
@@ -443,65 +455,12 @@ pub fn default_home(index: usize) -> Vec3 {
     Vec3::new(0.0, 3.0 * index as f64, 0.0)
 }
 
-/// The loopback port of peer number `k` of a mission (`k` = 0 for the
-/// ground station, 1 + the drone's index for a drone):
-/// `20000 + 64 * (FNV-1a(mission id) mod 199) + k`.
-///
-/// Every process of one mission derives the same ports with no file to
-/// share; two different missions are unlikely to meet in the same block
-/// of 64; the ports stay below 32768, where Linux starts handing out
-/// ephemeral ports; a fleet of more than 63 drones needs explicit
-/// endpoints.
-pub fn loopback_port(mission_id: &str, k: usize) -> u16 {
-    let mut h: u32 = 0x811c_9dc5;
-    for b in mission_id.bytes() {
-        h ^= u32::from(b);
-        h = h.wrapping_mul(0x0100_0193);
-    }
-    (20000 + 64 * (h % 199) + (k as u32 % 64)) as u16
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     fn drones() -> Vec<String> {
         vec!["D1".into(), "D2".into(), "D3".into()]
-    }
-
-    #[test]
-    fn a_fleet_file_binds_drones_to_adapters_homes_and_endpoints() {
-        let f = Fleet::parse(
-            r#"
-[gcs]
-listen = ["tcp/127.0.0.1:9000"]
-
-[drones.D1]
-home = { x = 1.0, y = 2.0, z = 0.0 }
-
-[drones.D3]
-script = { start_after = 1.0, legs = [{ leg = "hold", seconds = 2.0 }] }
-zenoh = { listen = ["tcp/127.0.0.1:9003"] }
-
-[drones.D2]
-adapter = "mavlink"
-connect = "udpin:0.0.0.0:14550"
-"#,
-            "fleet.toml",
-            "M",
-            &drones(),
-        )
-        .unwrap();
-        assert_eq!(f.home("D1", 0), Vec3::new(1.0, 2.0, 0.0));
-        assert_eq!(f.home("D3", 2), default_home(2));
-        assert_eq!(f.entry("D2").adapter, AdapterKind::Mavlink);
-        assert!(f.sim_spec("D3", 2).script.is_some());
-        let peers: Vec<String> = ["GCS", "D1", "D2", "D3"].map(String::from).to_vec();
-        let z = f.zenoh_options("abc", &peers, "D3");
-        assert_eq!(z.listen, vec!["tcp/127.0.0.1:9003"]);
-        assert!(z.connect.contains(&"tcp/127.0.0.1:9000".to_string()));
-        assert_eq!(z.connect.len(), 3);
-        assert!(!z.scouting);
     }
 
     #[test]
@@ -680,6 +639,33 @@ connection = "/dev/ttyUSB0:57600"
     }
 
     #[test]
+    fn every_path_is_resolved_against_the_fleet_files_directory_once_when_it_is_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("fleet.toml");
+        std::fs::write(
+            &file,
+            "[keys]\ngcs = \"keys/gcs.pub\"\n[zenoh.tls]\nca = \"ca.pem\"\ncertificate = \"all.pem\"\nkey = \"all.key\"\n[drones.D1]\n",
+        )
+        .unwrap();
+        let bound = Fleet::load(&file, "M", &drones()).unwrap();
+        let unbound = Fleet::load_unbound(&file).unwrap();
+        for f in [&bound, &unbound] {
+            assert_eq!(f.keys.gcs, Some(dir.path().join("keys/gcs.pub")));
+            assert_eq!(
+                f.tls_files("D1").unwrap().certificate,
+                dir.path().join("all.pem")
+            );
+        }
+        // A fleet read before its mission is checked against it later.
+        unbound.check_mission("fleet.toml", "M", &drones()).unwrap();
+        let e = unbound
+            .check_mission("fleet.toml", "M", &["D2".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("D1") && e.contains("D2"), "{e}");
+    }
+
+    #[test]
     fn an_unknown_policy_or_a_bad_grace_period_is_reported_with_its_line() {
         for (text, what) in [
             ("[drones.D1]\non_lost = \"panic\"\n", "panic"),
@@ -690,27 +676,5 @@ connection = "/dev/ttyUSB0:57600"
             let msg = e.to_string();
             assert!(msg.contains("line 2") && msg.contains(what), "{msg}");
         }
-    }
-
-    #[test]
-    fn loopback_ports_are_distinct_per_peer_and_the_same_in_every_process() {
-        let ports: Vec<u16> = (0..4).map(|k| loopback_port("mission-x", k)).collect();
-        let mut d = ports.clone();
-        d.sort();
-        d.dedup();
-        assert_eq!(d.len(), 4);
-        assert_eq!(
-            ports,
-            (0..4)
-                .map(|k| loopback_port("mission-x", k))
-                .collect::<Vec<_>>()
-        );
-        assert!(ports.iter().all(|p| (20000..32768).contains(p)));
-        let f = Fleet::default();
-        let peers: Vec<String> = ["GCS", "D1"].map(String::from).to_vec();
-        assert_eq!(
-            f.listen("mission-x", &peers, "D1"),
-            vec![format!("tcp/127.0.0.1:{}", ports[1])]
-        );
     }
 }

@@ -1,0 +1,301 @@
+//! The agent on a drone's companion computer: waits for its slice,
+//! answers the ground station, flies each started mission.
+
+use std::fmt;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use tokio::sync::mpsc;
+use tokio_util::sync::CancellationToken;
+
+use eamos_exec::abort;
+use eamos_exec::executor::Outcome;
+use eamos_exec::runner::{self, RunOptions};
+use eamos_fleet::Fleet;
+use eamos_profile::ProfileTable;
+use eamos_seal::PublicKey;
+use eamos_slicer::Slice;
+
+use crate::gate::{Gate, Offer};
+use crate::link::{open_session, rollout_options, DeployError};
+use crate::sessions::Sessions;
+use crate::wire::{encode, rollout_key, AgentStatus, Answer, Held, StartCommand};
+
+/// How an agent runs.
+pub struct AgentConfig {
+    pub drone: String,
+    /// What errors call the fleet file.
+    pub fleet_name: String,
+    /// The fleet as read before any mission is known
+    /// ([`Fleet::load_unbound`]): checked against the mission's drones
+    /// once a slice says which they are.
+    pub fleet: Fleet,
+    /// Slices and commands must be signed by this key when given.
+    pub trusted: Option<PublicKey>,
+    pub profiles: ProfileTable,
+    /// Where each mission's logs go: `<out>/<mission>`.
+    pub out: PathBuf,
+    /// Stop after one mission.
+    pub once: bool,
+}
+
+/// What an agent did, for the command line to print.
+#[derive(Debug, Clone, PartialEq)]
+pub enum AgentEvent {
+    Waiting { endpoints: Vec<String> },
+    Accepted { mission: String, digest: String },
+    Refused { what: &'static str, reason: String },
+    Started { identity: String },
+    Ended { identity: String, outcome: String },
+}
+
+impl fmt::Display for AgentEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            AgentEvent::Waiting { endpoints } => {
+                write!(
+                    f,
+                    "waiting for a slice (roll-out via {})",
+                    endpoints.join(", ")
+                )
+            }
+            AgentEvent::Accepted { mission, digest } => {
+                write!(f, "accepted the slice of {mission} (digest {digest})")
+            }
+            AgentEvent::Refused { what, reason } => write!(f, "refused a {what}: {reason}"),
+            AgentEvent::Started { identity } => write!(f, "started mission {identity}"),
+            AgentEvent::Ended { identity, outcome } => {
+                write!(f, "mission {identity} ended: {outcome}")
+            }
+        }
+    }
+}
+
+fn outcome_text(o: &Outcome) -> String {
+    match o {
+        Outcome::Completed => "completed".into(),
+        Outcome::TimeLimit { waiting } => format!("time limit (waiting: {})", waiting.join("; ")),
+        Outcome::Failed { reason } => format!("failed: {reason}"),
+        Outcome::Stopped => "stopped".into(),
+        #[allow(unreachable_patterns)]
+        other => format!("{other:?}"),
+    }
+}
+
+/// The slice an agent holds, and the deploy session that offered it.
+struct HeldSlice {
+    slice: Slice,
+    digest: String,
+    fleet: Fleet,
+    session: String,
+}
+
+impl HeldSlice {
+    fn held(&self) -> Held {
+        Held {
+            identity: self.slice.mission_id.clone(),
+            digest: self.digest.clone(),
+            session: self.session.clone(),
+        }
+    }
+}
+
+struct AgentState {
+    held: Option<HeldSlice>,
+    flying: Option<String>,
+    sessions: Sessions,
+}
+
+/// Runs the agent of one drone: waits for its slice, answers the ground
+/// station, flies each started mission with [`runner::run_peer`]. Returns
+/// after one mission when `once`, otherwise when `stop` is cancelled.
+pub async fn run_agent(
+    config: AgentConfig,
+    events: mpsc::UnboundedSender<AgentEvent>,
+    stop: CancellationToken,
+) -> Result<(), DeployError> {
+    if config.drone.is_empty()
+        || config
+            .drone
+            .chars()
+            .any(|c| matches!(c, '/' | '*' | '$' | '?' | '#' | '@') || c.is_whitespace())
+    {
+        return Err(DeployError::Setup(format!(
+            "`{}` cannot be a drone name",
+            config.drone
+        )));
+    }
+    let options = rollout_options(&config.fleet, &config.drone);
+    let session = open_session(&options).await?;
+    let gate = Arc::new(Gate {
+        drone: config.drone.clone(),
+        fleet: config.fleet.clone(),
+        fleet_name: config.fleet_name.clone(),
+        trusted: config.trusted.clone(),
+    });
+    std::fs::create_dir_all(&config.out)
+        .map_err(|e| DeployError::Setup(format!("cannot create {}: {e}", config.out.display())))?;
+    let sessions = Sessions::load(&config.out.join(format!("{}.sessions", config.drone)))
+        .map_err(DeployError::Setup)?;
+    let state = Arc::new(Mutex::new(AgentState {
+        held: None,
+        flying: None,
+        sessions,
+    }));
+    let zerr = |e: zenoh::Error| DeployError::Open(e.to_string());
+    let status_q = session
+        .declare_queryable(rollout_key(&config.drone, "status"))
+        .await
+        .map_err(zerr)?;
+    let slice_q = session
+        .declare_queryable(rollout_key(&config.drone, "slice"))
+        .await
+        .map_err(zerr)?;
+    let start_q = session
+        .declare_queryable(rollout_key(&config.drone, "start"))
+        .await
+        .map_err(zerr)?;
+    let _token = session
+        .liveliness()
+        .declare_token(rollout_key(&config.drone, "agent"))
+        .await
+        .map_err(zerr)?;
+    let _ = events.send(AgentEvent::Waiting {
+        endpoints: options.connect.clone(),
+    });
+    let (ended_tx, mut ended_rx) = mpsc::unbounded_channel::<()>();
+    let config = Arc::new(config);
+    loop {
+        tokio::select! {
+            _ = stop.cancelled() => return Ok(()),
+            Some(()) = ended_rx.recv() => {
+                if config.once {
+                    return Ok(());
+                }
+            }
+            Ok(q) = status_q.recv_async() => {
+                let status = {
+                    let s = state.lock().expect("agent state");
+                    AgentStatus {
+                        drone: config.drone.clone(),
+                        fleet: gate.fleet_digest(),
+                        trusts: gate.trusted.as_ref().map(PublicKey::fingerprint),
+                        holds: s.held.as_ref().map(HeldSlice::held),
+                        flying: s.flying.clone(),
+                    }
+                };
+                let _ = q.reply(q.key_expr().clone(), encode(&status)).await;
+            }
+            Ok(q) = slice_q.recv_async() => {
+                let bytes = q.payload().map(|p| p.to_bytes().to_vec()).unwrap_or_default();
+                let answer = {
+                    let mut s = state.lock().expect("agent state");
+                    let flying = s.flying.clone();
+                    let held = s.held.as_ref().map(HeldSlice::held);
+                    match (flying, gate.check_slice(&bytes, held.as_ref(), &s.sessions)) {
+                        (Some(m), _) => Answer::Refused { reason: format!("busy: flying {m}") },
+                        (None, Err(reason)) => Answer::Refused { reason },
+                        (None, Ok(Offer::New { slice, digest, fleet, session })) => {
+                            let _ = events.send(AgentEvent::Accepted {
+                                mission: slice.mission_id.clone(),
+                                digest: digest.clone(),
+                            });
+                            s.held = Some(HeldSlice { slice: *slice, digest: digest.clone(), fleet: *fleet, session });
+                            Answer::Accepted { digest }
+                        }
+                        (None, Ok(Offer::Keep { digest, session })) => {
+                            if let Some(h) = s.held.as_mut() {
+                                h.session = session;
+                            }
+                            Answer::Accepted { digest }
+                        }
+                    }
+                };
+                if let Answer::Refused { reason } = &answer {
+                    let _ = events.send(AgentEvent::Refused { what: "slice", reason: reason.clone() });
+                }
+                let _ = q.reply(q.key_expr().clone(), encode(&answer)).await;
+            }
+            Ok(q) = start_q.recv_async() => {
+                let bytes = q.payload().map(|p| p.to_bytes().to_vec()).unwrap_or_default();
+                let answer = {
+                    let mut s = state.lock().expect("agent state");
+                    let held = s.held.as_ref().map(HeldSlice::held);
+                    let flying = s.flying.clone();
+                    let checked = match flying {
+                        Some(m) => Err(format!("busy: flying {m}")),
+                        None => gate
+                            .check_start(&bytes, held.as_ref(), &s.sessions)
+                            .and_then(|start| {
+                                s.sessions.record(&start.session, &start.identity)?;
+                                Ok(start)
+                            }),
+                    };
+                    match checked {
+                        Err(reason) => Answer::Refused { reason },
+                        Ok(start) => {
+                            let (slice, digest, fleet) = {
+                                let h = s.held.as_mut().expect("checked: a slice is held");
+                                // The slice kept from an earlier version joins this one.
+                                h.slice.mission_id = start.identity.clone();
+                                (h.slice.clone(), h.digest.clone(), h.fleet.clone())
+                            };
+                            s.flying = Some(start.identity.clone());
+                            let _ = events.send(AgentEvent::Started { identity: start.identity.clone() });
+                            tokio::spawn(fly(
+                                config.clone(), slice, fleet, start, state.clone(),
+                                events.clone(), ended_tx.clone(), stop.clone(),
+                            ));
+                            Answer::Accepted { digest }
+                        }
+                    }
+                };
+                if let Answer::Refused { reason } = &answer {
+                    let _ = events.send(AgentEvent::Refused { what: "start command", reason: reason.clone() });
+                }
+                let _ = q.reply(q.key_expr().clone(), encode(&answer)).await;
+            }
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+async fn fly(
+    config: Arc<AgentConfig>,
+    slice: Slice,
+    fleet: Fleet,
+    start: StartCommand,
+    state: Arc<Mutex<AgentState>>,
+    events: mpsc::UnboundedSender<AgentEvent>,
+    ended: mpsc::UnboundedSender<()>,
+    stop: CancellationToken,
+) {
+    let options = RunOptions {
+        speed: start.speed,
+        max_duration: start.max_duration,
+        seed: start.seed,
+        out: config.out.join(&slice.mission),
+        stop: stop.child_token(),
+        // The flight begins when the ground station issued its start: an
+        // abort issued before that is a recording of an earlier flight's.
+        abort_opener: config
+            .trusted
+            .clone()
+            .map(|k| abort::opener_since(k, start.issued_at_ms)),
+        ..RunOptions::default()
+    };
+    let outcome = match runner::run_peer(&slice, &fleet, &config.profiles, &options).await {
+        Ok(r) => r
+            .reports
+            .first()
+            .map(|r| outcome_text(&r.outcome))
+            .unwrap_or_else(|| "no report".into()),
+        Err(e) => format!("failed: {e}"),
+    };
+    state.lock().expect("agent state").flying = None;
+    let _ = events.send(AgentEvent::Ended {
+        identity: start.identity,
+        outcome,
+    });
+    let _ = ended.send(());
+}
