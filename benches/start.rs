@@ -15,7 +15,7 @@ use eamos_slicer::Slice;
 mod workload;
 
 fn start(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -1130,7 +1130,7 @@ mod tests {
 
     fn slices(mission: &str, fleet: &Fleet) -> Slices {
         let source = eamos_lang::SourceFile::new("m.go".to_string(), mission.to_string());
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let compiled = eamos_lang::compile(&source, &profiles).unwrap();
         let net = eamos_petri::compile(&compiled.mission, &profiles);
         let mut s = eamos_slicer::slice(&net).unwrap();

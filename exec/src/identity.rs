@@ -157,7 +157,7 @@ mod tests {
 
     fn slices(text: &str) -> Slices {
         let source = eamos_lang::SourceFile::new("m.go".to_string(), text.to_string());
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let compiled = eamos_lang::compile(&source, &profiles).expect("the mission checks");
         let net = eamos_petri::compile(&compiled.mission, &profiles);
         eamos_slicer::slice(&net).expect("the mission slices")

@@ -9,18 +9,11 @@ use eamos_lang::{compile, render, SourceFile, Style};
 use eamos_profile::ProfileTable;
 use libfuzzer_sys::fuzz_target;
 
-/// The built-in quadcopter profile, read from the middle layer's data file
-/// rather than through `eamos-mid`, so the sanitizer build stays small.
+/// The built-in profiles, read once: `eamos-profile` owns them, so the
+/// sanitizer build of this target needs no async runtime.
 fn profiles() -> &'static ProfileTable {
     static TABLE: OnceLock<ProfileTable> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let mut table = ProfileTable::new();
-        let quadcopter =
-            ProfileTable::parse_profile(include_str!("../../mid/profiles/quadcopter.toml"))
-                .expect("the built-in profile is valid");
-        table.insert(quadcopter).expect("one profile");
-        table
-    })
+    TABLE.get_or_init(eamos_profile::builtin)
 }
 
 fuzz_target!(|data: &[u8]| {

@@ -80,7 +80,7 @@ pub fn run(args: Args) -> ExitCode {
         }
     };
     let source = SourceFile::new(name, text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let style = Style {
         width: 100,
         colour: !args.json

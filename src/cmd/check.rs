@@ -67,7 +67,7 @@ pub fn run(args: Args) -> ExitCode {
             }
         }
     } else {
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let style = Style {
             width: 100,
             colour: !args.json && std::io::stderr().is_terminal(),

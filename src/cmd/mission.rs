@@ -34,7 +34,7 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     let text = std::fs::read_to_string(mission)
         .map_err(|e| bad_input(&format!("cannot read {name}: {e}")))?;
     let source = SourceFile::new(name.clone(), text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled = eamos_lang::compile(&source, &profiles).map_err(|diags| {
         let style = Style { width: 100, colour };
         eprint!("{}", eamos_lang::render_all(&diags, &source, style));
