@@ -14,7 +14,7 @@ use eamos_verify::{check_net, Options};
 use eamos_bench::workload;
 
 fn check(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     // `cargo test` runs each benchmark once, unoptimised, to see that it
     // works: a small bound keeps that quick.
     let benchmarking = std::env::args().any(|a| a == "--bench");

@@ -8,7 +8,7 @@ use eamos_lang::SourceFile;
 use eamos_bench::workload;
 
 fn paper_missions(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mut g = c.benchmark_group("compile");
     for spec in [workload::SMALL, workload::STRESS] {
         let source = SourceFile::new(spec.file_name(), spec.text());
@@ -32,7 +32,7 @@ fn paper_missions(c: &mut Criterion) {
 }
 
 fn growth(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mut g = c.benchmark_group("compile_series");
     g.sample_size(10);
     for nodes in workload::SERIES {

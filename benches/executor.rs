@@ -122,7 +122,7 @@ async fn play(slices: &Slices, profiles: &ProfileTable) {
 }
 
 fn firings(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

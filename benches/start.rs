@@ -14,7 +14,7 @@ use eamos_slicer::Slice;
 use eamos_bench::workload;
 
 fn start(c: &mut Criterion) {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let runtime = tokio::runtime::Builder::new_multi_thread()
         .enable_all()
         .build()

@@ -173,7 +173,7 @@ impl Rig {
             mission.display().to_string(),
             std::fs::read_to_string(mission).unwrap(),
         );
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
         let net = eamos_petri::compile(&m, &profiles);
         let fleet = Fleet::load(&self.fleet, &net.name, &net.drones).unwrap();
@@ -714,7 +714,7 @@ fn a_recorded_offer_and_start_played_back_after_the_flight_are_refused_even_by_a
             assert!(matches!(a, Answer::Accepted { .. }), "{d}: {a:?}");
         }
         r.close().await;
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let report = rollout::fly_ground_station(&slices, &fleet, &profiles, &run)
             .await
             .unwrap();

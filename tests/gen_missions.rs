@@ -12,7 +12,7 @@ use eamos_verify::{check_net, FindingKind, Options as CheckOptions};
 fn mission(options: &Options) -> (Generated, SourceFile, hir::Mission) {
     let g = generate(options).expect("generates");
     let file = SourceFile::new("gen.go", g.text.clone());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled = compile(&file, &profiles).unwrap_or_else(|d| {
         panic!(
             "{options:?} does not compile:\n{}",
@@ -79,7 +79,7 @@ fn nodes_are_counted_as_the_paper_counts_experiment_a() {
             }
         })
         .collect();
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     for (text, nodes) in [(text, 10), (with_pauses, 18)] {
         let m = compile(&SourceFile::new("experiment_a.go", text), &profiles)
             .expect("experiment A compiles")
@@ -133,7 +133,7 @@ fn large_missions_mix_actions_pauses_blocks_and_structures_as_the_paper_does() {
 
 #[test]
 fn the_checker_proves_generated_missions_free_of_deadlock_and_conflict() {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     // Choices (If, condition loops, Do) in parallel branches multiply the
     // states to explore: the full mix is proved on smaller missions.
     let cases = [
@@ -170,7 +170,7 @@ fn the_checker_proves_generated_missions_free_of_deadlock_and_conflict() {
 
 #[test]
 fn risky_missions_may_deadlock_and_the_checker_finds_where() {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mut deadlocked = 0;
     let mut risky = 0;
     for seed in 0..40 {

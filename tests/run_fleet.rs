@@ -22,7 +22,7 @@ fn example(name: &str) -> PathBuf {
 fn slice_bridges(mission: &str) -> Vec<(String, usize, usize)> {
     let path = paper(mission);
     let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(path).unwrap());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&m, &profiles);
     let slices = eamos_slicer::slice(&net).unwrap();

@@ -31,7 +31,7 @@ impl Drop for Processes {
 fn peers(mission: &str) -> (Vec<String>, Vec<(String, usize, usize)>) {
     let file =
         eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&m, &profiles);
     let slices = eamos_slicer::slice(&net).unwrap();

@@ -158,7 +158,7 @@ impl Flight {
 fn slices(mission: &str) -> eamos_slicer::Slices {
     let file =
         eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
 }

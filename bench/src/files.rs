@@ -32,7 +32,7 @@ pub fn prepare(dir: &Path) -> Result<Facts, String> {
     let files = dir.join("files");
     std::fs::create_dir_all(&files)
         .map_err(|e| format!("cannot create {}: {e}", files.display()))?;
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let one = |spec: MissionSpec| -> Result<MissionFacts, String> {
         let text = spec.text();
         let mission = files.join(spec.file_name());

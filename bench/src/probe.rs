@@ -60,7 +60,7 @@ fn probe_compile(file: &Path) -> Result<String, String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     let source = SourceFile::new(file.display().to_string(), text);
-    let compiled = workload::compile(&source, &eamos_mid::profiles::builtin())?;
+    let compiled = workload::compile(&source, &eamos_profile::builtin())?;
     std::hint::black_box(&compiled);
     Ok(String::new())
 }
@@ -71,7 +71,7 @@ fn probe_check(file: &Path) -> Result<String, String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     let source = SourceFile::new(file.display().to_string(), text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mission = workload::front_end(&source, &profiles)?;
     let net = eamos_petri::compile(&mission, &profiles);
     let options = eamos_verify::Options {
@@ -96,7 +96,7 @@ fn probe_start(file: &Path) -> Result<String, String> {
         .enable_all()
         .build()
         .map_err(|e| format!("cannot start the async runtime: {e}"))?;
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let ready = runtime.block_on(workload::ready_agent(
         slice,
         &profiles,

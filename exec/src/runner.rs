@@ -201,7 +201,7 @@ async fn build_adapters(
                     .as_ref()
                     .expect("a simulator exists for simulated drones");
                 let drone = fleet_sim
-                    .add_drone(fleet.sim_spec(d, index), log.clone())
+                    .add_drone_with_profile(fleet.sim_spec(d, index), profile.clone(), log.clone())
                     .map_err(|e| RunError::Sim(e.to_string()))?;
                 if let Some(a) = airframes.get(d) {
                     drone.restore(a).map_err(|e| RunError::Sim(e.to_string()))?;

@@ -37,7 +37,7 @@ fn slices() -> (Slices, Arc<SourceFile>) {
 
 fn slices_of(name: &str, text: &str) -> (Slices, Arc<SourceFile>) {
     let file = SourceFile::new(name.to_string(), text.to_string());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mission = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&mission, &profiles);
     (eamos_slicer::slice(&net).unwrap(), Arc::new(file))
@@ -147,7 +147,7 @@ async fn fly_mission_and_cut_lead(
         }
         cut
     });
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let report = run_fleet(&slices, &fleet, &profiles, &options)
         .await
         .unwrap();

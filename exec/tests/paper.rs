@@ -24,7 +24,7 @@ fn slices_of(name: &str) -> (Slices, Arc<SourceFile>) {
     let path = paper(name);
     let text = std::fs::read_to_string(&path).unwrap();
     let file = SourceFile::new(name, text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled = eamos_lang::compile(&file, &profiles).expect("paper missions compile");
     let net = eamos_petri::compile(&compiled.mission, &profiles);
     (eamos_slicer::slice(&net).unwrap(), Arc::new(file))
@@ -46,7 +46,7 @@ async fn fly(
         max_duration: Some(3600.0),
         ..RunOptions::default()
     };
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let report = run_fleet(&slices, &Fleet::default(), &profiles, &options)
         .await
         .unwrap();

@@ -38,7 +38,7 @@ func SEQ_Go() {
 
 async fn fly(transport: TransportKind) {
     let file = SourceFile::new("remote.go", MISSION);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let mission = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&mission, &profiles);
     let slices = eamos_slicer::slice(&net).unwrap();

@@ -128,7 +128,7 @@ mod tests {
 
     fn net(text: &str) -> eamos_petri::net::Net {
         let source = eamos_lang::SourceFile::new("m.go".to_string(), text.to_string());
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let compiled = eamos_lang::compile(&source, &profiles).expect("the mission checks");
         eamos_petri::compile(&compiled.mission, &profiles)
     }

@@ -7,18 +7,10 @@ use std::sync::OnceLock;
 use eamos_lang::{compile, render, SourceFile, Style};
 use eamos_profile::ProfileTable;
 
-/// The built-in quadcopter profile, read from the middle layer's data file
-/// rather than through `eamos-mid`, so the sanitizer build stays small.
+/// The built-in profiles, read once.
 fn profiles() -> &'static ProfileTable {
     static TABLE: OnceLock<ProfileTable> = OnceLock::new();
-    TABLE.get_or_init(|| {
-        let mut table = ProfileTable::new();
-        let quadcopter =
-            ProfileTable::parse_profile(include_str!("../../mid/profiles/quadcopter.toml"))
-                .expect("the built-in profile is valid");
-        table.insert(quadcopter).expect("one profile");
-        table
-    })
+    TABLE.get_or_init(eamos_profile::builtin)
 }
 
 /// One input: it must not panic.

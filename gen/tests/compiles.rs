@@ -7,7 +7,7 @@ use eamos_lang::{compile, SourceFile};
 fn compiles(options: &Options) {
     let m = generate(options).expect("generates");
     let file = SourceFile::new(format!("gen-{}.go", options.seed), m.text.clone());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     match compile(&file, &profiles) {
         Ok(c) => assert!(
             c.warnings.is_empty(),

@@ -8,7 +8,7 @@ use eamos_lang::{compile, render, SourceFile, Style};
 
 fn report(name: &str, text: &str) -> String {
     let file = SourceFile::new(name, text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let (verdict, diags) = match compile(&file, &profiles) {
         Ok(c) => ("compiles, with warnings", c.warnings),
         Err(d) => ("does not compile", d),

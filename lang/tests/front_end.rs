@@ -6,10 +6,7 @@ use eamos_lang::hir::{self, BinaryOp, BlockKind, CondMode, DroneId, Expr, Stmt, 
 use eamos_lang::{compile, parser, Compiled, Diagnostic, SourceFile};
 
 fn build(text: &str) -> Result<Compiled, Vec<Diagnostic>> {
-    compile(
-        &SourceFile::new("m.go", text),
-        &eamos_mid::profiles::builtin(),
-    )
+    compile(&SourceFile::new("m.go", text), &eamos_profile::builtin())
 }
 
 fn ok(text: &str) -> hir::Mission {

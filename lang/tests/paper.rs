@@ -16,7 +16,7 @@ fn paper(name: &str) -> SourceFile {
 
 fn summary(name: &str) -> Summary {
     let file = paper(name);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     match compile(&file, &profiles) {
         Ok(c) => {
             assert!(c.warnings.is_empty(), "{name}: {:#?}", c.warnings);

@@ -33,7 +33,7 @@ fn paper_missions() -> Vec<String> {
 }
 
 fn profiles() -> eamos_profile::ProfileTable {
-    eamos_mid::profiles::builtin()
+    eamos_profile::builtin()
 }
 
 fn check_spans_of_mission(m: &hir::Mission, len: u32) {

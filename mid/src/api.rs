@@ -21,8 +21,10 @@
 //! come to rest.
 
 use std::fmt;
+use std::sync::OnceLock;
 
 use async_trait::async_trait;
+use eamos_profile::Profile;
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 
@@ -436,9 +438,21 @@ impl Axis {
     }
 }
 
+/// The built-in `Quadcopter` profile, read once: the arity of each typed
+/// action below is its data, not a second list kept here.
+pub(crate) fn quadcopter() -> &'static Profile {
+    static QUADCOPTER: OnceLock<Profile> = OnceLock::new();
+    QUADCOPTER.get_or_init(|| {
+        eamos_profile::builtin()
+            .get("Quadcopter")
+            .expect("the built-in profiles have a Quadcopter")
+            .clone()
+    })
+}
+
 /// The actions of the built-in `Quadcopter` profile, typed, so that every
 /// multirotor adapter (simulator, MAVLink) parses and validates calls the
-/// same way.
+/// same way. Their arities are the profile's.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub enum MultirotorAction {
     TurnOn,
@@ -464,17 +478,12 @@ impl MultirotorAction {
     /// not above the ground) is [`ActionError::BadArguments`].
     pub fn parse(call: &ActionCall) -> Result<Self, ActionError> {
         let name = call.name.as_str();
-        let arity = match name {
-            "Takeoff" | "FlyByX" | "FlyByY" | "FlyByZ" | "Hover" => 1,
-            "FlyTo" => 3,
-            "TurnOn" | "PreFlightCheck" | "Calibrate" | "Arm" | "Disarm" | "Land"
-            | "ReturnHome" | "TurnOnCamera" | "AdjustCamera" | "TakePhoto" => 0,
-            _ => {
-                return Err(ActionError::Unsupported {
-                    action: call.name.clone(),
-                })
-            }
+        let Some(sig) = quadcopter().actions.get(name) else {
+            return Err(ActionError::Unsupported {
+                action: call.name.clone(),
+            });
         };
+        let arity = sig.arity();
         if call.args.len() != arity {
             return Err(ActionError::bad_arguments(
                 name,
@@ -539,7 +548,13 @@ impl MultirotorAction {
             "TurnOnCamera" => MultirotorAction::TurnOnCamera,
             "AdjustCamera" => MultirotorAction::AdjustCamera,
             "TakePhoto" => MultirotorAction::TakePhoto,
-            _ => unreachable!("every name with an arity is matched above"),
+            // An action of the profile with no typed form: adapters that
+            // run it do so from its declaration, the others refuse it.
+            _ => {
+                return Err(ActionError::Unsupported {
+                    action: call.name.clone(),
+                })
+            }
         })
     }
 

@@ -1,6 +1,7 @@
-//! The middle layer: one drone API for every platform, the capability
-//! profiles that describe what each drone type offers, and the adapters that
-//! drive a platform (the built-in simulator, MAVLink autopilots).
+//! The middle layer: one drone API for every platform, and the adapters
+//! that drive a platform (the built-in simulator, MAVLink autopilots). What
+//! each drone type offers is its capability profile (`eamos-profile`): the
+//! adapters read arities and nominal durations there.
 //!
 //! - [`api`]: the [`Adapter`] trait every platform implements, typed
 //!   [`ActionError`]s, [`Telemetry`] and property evaluation.
@@ -19,7 +20,6 @@ pub mod clock;
 pub mod failsafe;
 pub mod log;
 pub mod mavlink;
-pub mod profiles;
 pub mod sim;
 pub mod uniform;
 

@@ -10,7 +10,7 @@
 //! use eamos_lang::SourceFile;
 //! use eamos_petri::game::{self, oracle, Outcome};
 //!
-//! let profiles = eamos_mid::profiles::builtin();
+//! let profiles = eamos_profile::builtin();
 //! let file = SourceFile::new(
 //!     "m.go",
 //!     "package M\nvar D1 Quadcopter\nfunc INIT() {\n\tD1.Takeoff(1)\n\tD1.Land()\n}\n",

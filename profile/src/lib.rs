@@ -1,155 +1,53 @@
-//! Capability profiles: what a drone type offers to a mission.
+//! Capability profiles: what a drone type offers to a mission, as data.
 //!
-//! A profile is data, not code, so that a team can describe a new airframe
-//! without touching the compiler: the front end checks missions against
-//! whatever [`ProfileTable`] it is handed, the checker reads which actions
-//! exclude each other, and the middle layer binds each action to an adapter.
-//! The built-in profiles themselves live with the middle layer (`eamos-mid`).
+//! A profile is data, not code, so that a team can describe a new airframe,
+//! or a new action of one, without touching the compiler: the front end
+//! checks missions against whatever [`ProfileTable`] it is handed, the
+//! checker reads which actions exclude each other, and the middle layer
+//! binds each action to an adapter. The built-in profiles live here as TOML
+//! files ([`builtin`]).
+//!
+//! Owns: the schema of a profile, its TOML loader and the built-in
+//! profiles. Must never: run an action, know a mission, a net or an
+//! adapter, or depend on an async runtime (the front end, the net compiler
+//! and the checker build on this crate alone).
+//!
+//! # An action in TOML
+//! ```toml
+//! [actions.Takeoff]
+//! params = [{ name = "height", kind = "metres" }]   # arity and units
+//! resources = ["motion"]             # held while it runs; shared = exclusive
+//! flight = { armed = "airborne" }    # may start armed on the ground; ends in the air
+//! motion = { climb_to = "height" }   # where it flies
+//! duration = "flight"                # nominal time: its motion at [speeds]
+//! description = "Climb to `height` metres above home."
+//! ```
+//! - `flight`: the flight states (`disarmed`, `armed`, `airborne`; the
+//!   first two on the ground) the action may start in, each mapped to the
+//!   state it leaves the drone in. Left out: any state, unchanged.
+//! - `motion`: `{ by_x = "p" }`, `{ by_y = "p" }`, `{ by_z = "p" }`
+//!   (relative, by the argument `p` in metres), `{ to = ["x", "y", "z"] }`
+//!   (absolute), `{ climb_to = "h" }` (straight up), `"land"` (straight
+//!   down), `"home"` (back above home at the same height). Left out: the
+//!   drone does not move.
+//! - `duration`: `{ seconds = 2.0 }` (fixed), `{ param = "p" }` (the
+//!   argument `p`, in seconds), `"flight"` (the motion's length at the
+//!   profile's `[speeds]`, `horizontal`, `climb`, `descent` in m/s). Left
+//!   out: instant.
+//!
+//! A simulated drone runs an action of its profile that the simulator has
+//! no code for as a wait of its nominal duration, after checking its flight
+//! state; a real autopilot needs adapter code for it.
 
-use std::collections::BTreeMap;
+mod builtin;
+mod flight;
+mod schema;
+mod table;
 
-use serde::{Deserialize, Serialize};
-
-/// All drone types known to one compilation, by name.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct ProfileTable {
-    profiles: BTreeMap<String, Profile>,
-}
-
-/// One drone type: the actions it can run and the properties it can report.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Profile {
-    pub name: String,
-    #[serde(default)]
-    pub description: String,
-    #[serde(default)]
-    pub actions: BTreeMap<String, ActionSig>,
-    #[serde(default)]
-    pub properties: BTreeMap<String, PropertySig>,
-}
-
-/// The signature of an action and the resources it holds while it runs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ActionSig {
-    #[serde(default)]
-    pub params: Vec<Param>,
-    /// Exclusive resources of the drone held from start to end (for example
-    /// `motion`): two running actions of one drone that share a resource are
-    /// a conflict.
-    #[serde(default)]
-    pub resources: Vec<String>,
-    #[serde(default)]
-    pub description: String,
-}
-
-/// The signature of a property that conditions may read.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct PropertySig {
-    #[serde(default)]
-    pub params: Vec<Param>,
-    #[serde(rename = "type")]
-    pub ty: ValueType,
-    #[serde(default)]
-    pub unit: Option<Unit>,
-    /// Bounds the property can take, used by interval reasoning over
-    /// conditions (a battery is between 0 and 100 percent).
-    #[serde(default)]
-    pub range: Option<(f64, f64)>,
-    #[serde(default)]
-    pub description: String,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Param {
-    pub name: String,
-    pub kind: ParamKind,
-}
-
-/// What an argument must be.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ParamKind {
-    /// A numeric constant expression in the given unit.
-    Metres,
-    Seconds,
-    Degrees,
-    Percent,
-    Number,
-    /// The name of a drone of the mission.
-    Drone,
-}
-
-impl ParamKind {
-    pub fn is_numeric(self) -> bool {
-        !matches!(self, ParamKind::Drone)
-    }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ValueType {
-    Number,
-    Bool,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Unit {
-    Metres,
-    Seconds,
-    Degrees,
-    Percent,
-    Metrespersecond,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum ProfileError {
-    #[error("profile file is not valid: {0}")]
-    Parse(#[from] toml::de::Error),
-    #[error("profile `{0}` is defined twice")]
-    Duplicate(String),
-}
-
-impl ProfileTable {
-    pub fn new() -> Self {
-        Self::default()
-    }
-
-    /// Reads one profile from its TOML form (see `mid/profiles/*.toml`).
-    pub fn parse_profile(src: &str) -> Result<Profile, ProfileError> {
-        Ok(toml::from_str(src)?)
-    }
-
-    pub fn insert(&mut self, profile: Profile) -> Result<(), ProfileError> {
-        if self.profiles.contains_key(&profile.name) {
-            return Err(ProfileError::Duplicate(profile.name));
-        }
-        self.profiles.insert(profile.name.clone(), profile);
-        Ok(())
-    }
-
-    pub fn get(&self, name: &str) -> Option<&Profile> {
-        self.profiles.get(name)
-    }
-
-    pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.profiles.keys().map(String::as_str)
-    }
-
-    pub fn iter(&self) -> impl Iterator<Item = &Profile> {
-        self.profiles.values()
-    }
-}
-
-impl Profile {
-    /// Whether two actions of this profile may not run at once on one drone.
-    pub fn excludes(&self, a: &str, b: &str) -> bool {
-        match (self.actions.get(a), self.actions.get(b)) {
-            (Some(x), Some(y)) => x.resources.iter().any(|r| y.resources.contains(r)),
-            _ => false,
-        }
-    }
-}
+pub use builtin::{builtin, with_extra};
+pub use flight::{DurationModel, FlightState, Motion, Point, Speeds};
+pub use schema::{ActionSig, Param, ParamKind, Profile, PropertySig, Unit, ValueType};
+pub use table::{ProfileError, ProfileTable};
 
 #[cfg(test)]
 mod tests {
@@ -191,5 +89,62 @@ mod tests {
     #[test]
     fn a_malformed_profile_is_an_error_not_a_panic() {
         assert!(ProfileTable::parse_profile("name = 3").is_err());
+    }
+
+    #[test]
+    fn an_action_declares_its_flight_states_motion_and_duration() {
+        let p = ProfileTable::parse_profile(
+            r#"
+            name = "Sprayer"
+            speeds = { horizontal = 4.0, climb = 1.0, descent = 1.0 }
+            [actions.Spray]
+            params = [{ name = "seconds", kind = "seconds" }]
+            flight = { airborne = "airborne" }
+            duration = { param = "seconds" }
+            [actions.Hop]
+            params = [{ name = "d", kind = "metres" }]
+            flight = { airborne = "airborne" }
+            motion = { by_y = "d" }
+            duration = "flight"
+            [actions.Beep]
+            duration = { seconds = 0.25 }
+            "#,
+        )
+        .unwrap();
+        let spray = &p.actions["Spray"];
+        assert_eq!(spray.arity(), 1);
+        assert_eq!(spray.starts_in(), [FlightState::Airborne]);
+        assert_eq!(p.nominal_duration("Spray", &[7.0], [0.0; 3]), Some(7.0));
+        assert_eq!(p.nominal_duration("Hop", &[8.0], [0.0; 3]), Some(2.0));
+        assert_eq!(p.nominal_duration("Beep", &[], [0.0; 3]), Some(0.25));
+        assert_eq!(
+            p.actions["Beep"].state_after(FlightState::Armed),
+            Some(FlightState::Armed)
+        );
+    }
+
+    #[test]
+    fn declarations_that_contradict_the_parameters_are_refused() {
+        let bad = |action: &str| {
+            let src = format!("name = \"P\"\n[actions.A]\n{action}\n");
+            match ProfileTable::parse_profile(&src) {
+                Err(e) => e.to_string(),
+                Ok(_) => panic!("accepted: {action}"),
+            }
+        };
+        let e = bad("params = [{ name = \"d\", kind = \"metres\" }]\nduration = { param = \"d\" }");
+        assert!(e.contains("not a parameter in seconds"), "{e}");
+        let e = bad("motion = { by_x = \"d\" }");
+        assert!(e.contains("not a parameter in metres"), "{e}");
+        let e = bad("duration = \"flight\"");
+        assert!(e.contains("declares no `motion`"), "{e}");
+        let e = bad("params = [{ name = \"d\", kind = \"metres\" }]\nmotion = { by_x = \"d\" }\nduration = \"flight\"");
+        assert!(e.contains("no `[speeds]`"), "{e}");
+        let e = bad("duration = { seconds = -1.0 }");
+        assert!(e.contains("not zero or more"), "{e}");
+        let e = bad("flight = { flying = \"airborne\" }");
+        assert!(e.contains("not valid"), "{e}");
+        let e = bad("durration = { seconds = 1.0 }");
+        assert!(e.contains("durration"), "a misspelt key is an error: {e}");
     }
 }

@@ -15,7 +15,7 @@ const FLEET: &str = "[drones.D1]\nhome = { x = 0.0, y = 0.0, z = 0.0 }\n";
 
 fn slices(mission: &str, fleet: &Fleet) -> Slices {
     let source = eamos_lang::SourceFile::new("m.go".to_string(), mission.to_string());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled = eamos_lang::compile(&source, &profiles).unwrap();
     let net = eamos_petri::compile(&compiled.mission, &profiles);
     eamos_fleet::identity::slice(&net, fleet).unwrap()

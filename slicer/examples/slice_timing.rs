@@ -16,14 +16,7 @@ use eamos_gen::{generate, Options, Size};
 use eamos_lang::SourceFile;
 
 fn profiles() -> eamos_profile::ProfileTable {
-    let mut t = eamos_profile::ProfileTable::new();
-    let q = include_str!(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../mid/profiles/quadcopter.toml"
-    ));
-    t.insert(eamos_profile::ProfileTable::parse_profile(q).expect("the quadcopter profile"))
-        .expect("one profile");
-    t
+    eamos_profile::builtin()
 }
 
 fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> (Duration, T) {

@@ -81,7 +81,7 @@ pub fn run(args: Args) -> ExitCode {
         fleet_name: name,
         fleet,
         trusted,
-        profiles: eamos_mid::profiles::builtin(),
+        profiles: eamos_profile::builtin(),
         out: args.out.clone(),
         once: args.once,
     };

@@ -89,7 +89,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(source) => source,
         Err((source, diags)) => return bad_mission(&args, &source, &diags, style),
     };
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     match eamos_lang::compile(&source, &profiles) {
         Ok(compiled) => {
             let summary = compiled.mission.summary();

@@ -81,7 +81,7 @@ pub fn run(args: Args) -> ExitCode {
             }
         }
     } else {
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         match eamos_lang::compile(&source, &profiles) {
             Ok(compiled) => {
                 if !compiled.warnings.is_empty() && !args.json {

@@ -40,7 +40,7 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     };
     let source = eamos_lang::decode(name.clone(), bytes)
         .map_err(|(source, diags)| report(&source, &diags))?;
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled =
         eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);

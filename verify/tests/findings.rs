@@ -10,12 +10,12 @@ use eamos_petri::net::TransitionKind;
 use eamos_verify::{check_net, FindingKind, Options, Property, Report, Verdict};
 
 fn check(b: &Builder) -> Report {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     check_net(&b.net, &profiles, Some(&b.src), &Options::default())
 }
 
 fn check_without_reduction(b: &Builder) -> Report {
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let opts = Options {
         reduction: false,
         ..Options::default()
@@ -480,7 +480,7 @@ fn the_memory_bound_stops_exploration_with_a_partial_verdict() {
         .collect();
     let end = b.join(&ends, eamos_lang::Span::default());
     b.finish(end);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let opts = Options {
         reduction: false,
         max_memory_mb: 1,

@@ -19,7 +19,7 @@ fn compile(path: PathBuf) -> (Net, SourceFile) {
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let name = path.file_name().unwrap().to_string_lossy().into_owned();
     let file = SourceFile::new(name, text);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let compiled = eamos_lang::compile(&file, &profiles).unwrap_or_else(|d| {
         panic!(
             "{}",
@@ -31,7 +31,7 @@ fn compile(path: PathBuf) -> (Net, SourceFile) {
 
 fn check_file(path: PathBuf) -> (Report, Net, SourceFile) {
     let (net, file) = compile(path);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let report = check_net(&net, &profiles, Some(&file.text), &Options::default());
     replay_all(&net, &report);
     // The reduction never changes an answer.
@@ -317,7 +317,7 @@ fn a_mission_exported_to_pnml_gets_the_same_deadlock_termination_and_safety_verd
         "handshake.go",
     ] {
         let (net, file) = compile(dir().join("tests/missions").join(name));
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let direct = check_net(&net, &profiles, Some(&file.text), &Options::default());
         for final_loop in [false, true] {
             let text = to_pnml(

@@ -166,7 +166,7 @@ proptest! {
     #[test]
     fn stubborn_sets_give_the_same_answers_as_full_exploration(r in random_net()) {
         let (net, src) = build(&r);
-        let profiles = eamos_mid::profiles::builtin();
+        let profiles = eamos_profile::builtin();
         let reduced = check_net(&net, &profiles, Some(&src), &Options::default());
         let full = check_net(
             &net,

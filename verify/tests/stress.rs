@@ -77,7 +77,7 @@ fn a_twenty_drone_mission_of_five_thousand_nodes_is_proved_free_of_deadlock() {
     let b = stress_mission();
     let nodes = b.net.graph.node_count();
     assert!(nodes >= 5000, "{nodes} nodes");
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let started = Instant::now();
     let r = check_net(&b.net, &profiles, Some(&b.src), &Options::default());
     let elapsed = started.elapsed();
@@ -105,7 +105,7 @@ fn a_twenty_drone_mission_with_a_wait_cycle_is_caught() {
     // Drone 0 waits halfway for drone 19's signal; without the token that
     // lets drone 19 signal, drone 0 waits for ever and the others with it.
     let mut b = stress_mission();
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     // Make the first await impossible: drop the initial pending token of
     // event s19, so drone 0's await (at k = 62) can never pass.
     let pending = b

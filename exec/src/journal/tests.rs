@@ -221,7 +221,7 @@ pub(crate) fn slices(mission: &str) -> eamos_slicer::Slices {
         .join("../../shared/missions/paper")
         .join(mission);
     let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(path).unwrap());
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
 }
@@ -432,7 +432,7 @@ func SEQ_Mission() {
 
 pub(crate) fn pausing() -> eamos_slicer::Slices {
     let file = eamos_lang::SourceFile::new("pausing.go", PAUSING);
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
 }

@@ -34,7 +34,7 @@ async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_r
     let dir = tempfile::tempdir().unwrap();
     let options = run_options(dir.path());
     let fleet = eamos_fleet::Fleet::default();
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let report = crate::runner::run_fleet(&s, &fleet, &profiles, &options)
         .await
         .unwrap();
@@ -78,7 +78,7 @@ async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_r
         )
         .unwrap(),
     );
-    let profiles = eamos_mid::profiles::builtin();
+    let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
     let net = eamos_petri::compile(&m, &profiles);
     assert!(marked.iter().any(|(is_final, _)| *is_final), "{marked:?}");
@@ -149,7 +149,7 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
             },
         );
         first.spawn(async move {
-            let profiles = eamos_mid::profiles::builtin();
+            let profiles = eamos_profile::builtin();
             let _ = run_fleet(&s, &eamos_fleet::Fleet::default(), &profiles, &options).await;
         });
     }
@@ -186,7 +186,7 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         .block_on(run_fleet(
             &s,
             &eamos_fleet::Fleet::default(),
-            &eamos_mid::profiles::builtin(),
+            &eamos_profile::builtin(),
             &options,
         ))
         .unwrap();

@@ -23,18 +23,24 @@
 //!   resource says they exclude each other), except the very same call,
 //!   which waits for the running one: four branches that each call
 //!   `D3.Land()` land D3 once.
-//! - The system and camera actions take a short simulated time
-//!   ([`ActionDurations`]); `Calibrate` is refused while armed.
+//! - The system and camera actions take the nominal time of the drone's
+//!   profile (or [`SimConfig::durations`]), and are refused in a flight
+//!   state the profile does not allow (`Calibrate` while armed).
+//! - An action only the profile declares runs from its declaration (see
+//!   [`declared`]).
 //! - A drone with a [`script::Script`] is flown by a scripted pilot once it
 //!   is in the air (see [`script`]).
 
+pub mod declared;
 pub mod kinematics;
 pub mod script;
 
+use std::collections::BTreeMap;
 use std::sync::{Arc, Mutex, MutexGuard, Weak};
 use std::time::Duration;
 
 use async_trait::async_trait;
+use eamos_profile::Profile;
 use serde::{Deserialize, Serialize};
 use tokio::sync::watch;
 use tokio::time::Instant;
@@ -46,6 +52,7 @@ use crate::api::{
 use crate::clock::MissionClock;
 use crate::log::{AdapterEvent, AdapterRecord, LogRecord, SharedSink};
 
+use declared::Plan;
 use kinematics::{Multirotor, MultirotorConfig, Refusal};
 use script::{PilotEvent, Script, ScriptPilot};
 
@@ -63,7 +70,9 @@ pub struct SimConfig {
     /// Simulated seconds between position records in the adapter log,
     /// while armed.
     pub position_log_period: f64,
-    pub durations: ActionDurations,
+    /// Simulated seconds of actions that do not move the drone, by action
+    /// name (`TakePhoto = 0.2`), instead of their profile's nominal time.
+    pub durations: BTreeMap<String, f64>,
 }
 
 impl Default for SimConfig {
@@ -73,32 +82,7 @@ impl Default for SimConfig {
             speed: 1.0,
             telemetry_period: 0.1,
             position_log_period: 1.0,
-            durations: ActionDurations::default(),
-        }
-    }
-}
-
-/// Simulated seconds the actions that do not move the drone take.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct ActionDurations {
-    pub turn_on: f64,
-    pub pre_flight_check: f64,
-    pub calibrate: f64,
-    pub turn_on_camera: f64,
-    pub adjust_camera: f64,
-    pub take_photo: f64,
-}
-
-impl Default for ActionDurations {
-    fn default() -> Self {
-        Self {
-            turn_on: 2.0,
-            pre_flight_check: 3.0,
-            calibrate: 5.0,
-            turn_on_camera: 1.0,
-            adjust_camera: 1.0,
-            take_photo: 0.5,
+            durations: BTreeMap::new(),
         }
     }
 }
@@ -121,18 +105,10 @@ impl SimConfig {
                 )));
             }
         }
-        let d = &self.durations;
-        for (name, v) in [
-            ("durations.turn_on", d.turn_on),
-            ("durations.pre_flight_check", d.pre_flight_check),
-            ("durations.calibrate", d.calibrate),
-            ("durations.turn_on_camera", d.turn_on_camera),
-            ("durations.adjust_camera", d.adjust_camera),
-            ("durations.take_photo", d.take_photo),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
+        for (name, v) in &self.durations {
+            if !(v.is_finite() && *v >= 0.0) {
                 return Err(SimError::BadConfig(format!(
-                    "`{name}` must be zero or more seconds, not {v}"
+                    "`durations.{name}` must be zero or more seconds, not {v}"
                 )));
             }
         }
@@ -236,9 +212,20 @@ impl SimFleet {
         Ok(Self { world })
     }
 
-    /// Adds a drone, at rest and disarmed on its home. Its records go to
-    /// `log`.
+    /// Adds a drone of the built-in `Quadcopter` profile, at rest and
+    /// disarmed on its home. Its records go to `log`.
     pub fn add_drone(&self, spec: SimDroneSpec, log: SharedSink) -> Result<SimDrone, SimError> {
+        self.add_drone_with_profile(spec, crate::api::quadcopter().clone(), log)
+    }
+
+    /// Adds a drone of the drone type `profile`: the simulator times its
+    /// actions and runs the ones it has no code for from that profile.
+    pub fn add_drone_with_profile(
+        &self,
+        spec: SimDroneSpec,
+        profile: Profile,
+        log: SharedSink,
+    ) -> Result<SimDrone, SimError> {
         spec.vehicle
             .validate()
             .map_err(|reason| SimError::BadVehicle {
@@ -269,6 +256,7 @@ impl SimFleet {
             name: spec.name.clone(),
             home: spec.home,
             pilot: spec.script.map(ScriptPilot::new),
+            profile,
             model,
             telemetry,
             log,
@@ -419,6 +407,7 @@ struct Motion {
 struct Slot {
     name: String,
     home: Vec3,
+    profile: Profile,
     model: Multirotor,
     pilot: Option<ScriptPilot>,
     telemetry: watch::Sender<Telemetry>,
@@ -665,39 +654,35 @@ impl SimDrone {
         f(&mut state.drones[self.index], now)
     }
 
-    fn start(&self, call: &ActionCall, action: MultirotorAction, target: Option<Vec3>) -> Start {
+    fn start(&self, call: &ActionCall, plan: Plan, target: Option<Vec3>) -> Start {
         let durations = &self.world.config.durations;
         self.with_slot(|slot, now| {
-            let name = action.name();
+            let name = call.name.as_str();
             let refused = |r: Refusal| Start::Finished(Err(ActionError::refused(name, r)));
 
-            if !action.is_motion() {
-                let seconds = match action {
-                    MultirotorAction::TurnOn => durations.turn_on,
-                    MultirotorAction::PreFlightCheck => durations.pre_flight_check,
-                    MultirotorAction::Calibrate => {
-                        if slot.model.is_armed() {
-                            return Start::Finished(Err(ActionError::refused(
-                                name,
-                                "sensors are calibrated with the motors disarmed; call Disarm first",
-                            )));
-                        }
-                        durations.calibrate
-                    }
-                    MultirotorAction::TurnOnCamera => durations.turn_on_camera,
-                    MultirotorAction::AdjustCamera => durations.adjust_camera,
-                    _ => durations.take_photo,
-                };
-                slot.note(
-                    now,
-                    AdapterEvent::Command {
-                        action: name.to_string(),
-                        args: call.args.clone(),
-                        detail: format!("simulated, {seconds} s"),
-                    },
-                );
-                return Start::Timed(seconds);
-            }
+            let action = match plan {
+                Plan::Typed(action) if action.is_motion() => action,
+                _ => {
+                    let seconds = match declared::timed_seconds(
+                        &slot.profile,
+                        durations,
+                        call,
+                        &slot.model,
+                    ) {
+                        Ok(seconds) => seconds,
+                        Err(e) => return Start::Finished(Err(e)),
+                    };
+                    slot.note(
+                        now,
+                        AdapterEvent::Command {
+                            action: name.to_string(),
+                            args: call.args.clone(),
+                            detail: format!("simulated, {seconds} s"),
+                        },
+                    );
+                    return Start::Timed(seconds);
+                }
+            };
 
             if let Some(m) = &mut slot.motion {
                 if m.call == *call {
@@ -817,6 +802,13 @@ impl SimDrone {
                         if !model.is_airborne() {
                             return refused(Refusal::OnGround);
                         }
+                        // The profile says how long a hover lasts (its
+                        // argument, for the built-in one).
+                        let p = model.position();
+                        let seconds = slot
+                            .profile
+                            .nominal_duration(name, &call.args, [p.x, p.y, p.z])
+                            .unwrap_or(seconds);
                         let at = model.reference();
                         model.hold_at(at);
                         Until::Time(now + seconds)
@@ -962,14 +954,14 @@ impl SimDrone {
         target: Option<Vec3>,
         cancel: CancellationToken,
     ) -> Result<(), ActionError> {
-        let action = MultirotorAction::parse(call)?;
-        let name = action.name();
+        let plan = self.with_slot(|slot, _| declared::plan(&slot.profile, call))?;
+        let name = call.name.as_str();
         if cancel.is_cancelled() {
             return Err(ActionError::Cancelled {
                 action: name.to_string(),
             });
         }
-        match self.start(call, action, target) {
+        match self.start(call, plan, target) {
             Start::Finished(result) => result,
             Start::Timed(seconds) => {
                 let clock = self.world.clock.clone();

@@ -11,7 +11,6 @@ use super::script::{Leg, Script};
 use super::*;
 use crate::api::{evaluate_property, PropertyArg};
 use crate::log::{CallPhase, MemorySink, NullSink};
-use crate::profiles;
 use crate::uniform::Uniform;
 
 fn fleet(speed: f64) -> SimFleet {
@@ -338,7 +337,11 @@ async fn system_and_camera_actions_take_their_simulated_time_and_can_be_cancelle
     let t0 = clock.now();
     run(&d, "Calibrate", &[]).await.unwrap();
     let took = clock.now() - t0;
-    assert!((took - f.config().durations.calibrate).abs() <= f.config().step + 1e-9);
+    let nominal = eamos_profile::builtin().get("Quadcopter").unwrap().actions["Calibrate"]
+        .nominal_duration([0.0; 3], &[], None)
+        .unwrap();
+    assert_eq!(nominal, 5.0);
+    assert!((took - nominal).abs() <= f.config().step + 1e-9);
     let cancel = CancellationToken::new();
     let turn_on = tokio::spawn({
         let (d, c) = (d.clone(), cancel.clone());
@@ -621,7 +624,7 @@ fn a_fleet_drone_reads_from_toml() {
 
 fn uniform(f: &SimFleet, sink: Arc<MemorySink>) -> (Uniform, SimDrone) {
     let d = drone(f, "D1", Vec3::ZERO);
-    let profile = profiles::builtin().get("Quadcopter").unwrap().clone();
+    let profile = eamos_profile::builtin().get("Quadcopter").unwrap().clone();
     (Uniform::new(Arc::new(d.clone()), profile, sink), d)
 }
 

@@ -22,7 +22,7 @@ pub fn span() -> Span {
 }
 
 pub fn profiles() -> ProfileTable {
-    eamos_mid::profiles::builtin()
+    eamos_profile::builtin()
 }
 
 /// A mission whose drones are Quadcopters named `names`.

@@ -6,18 +6,9 @@ use std::path::PathBuf;
 use eamos_lang::SourceFile;
 use eamos_petri::Net;
 
-/// The built-in profiles, read from the data file the middle layer ships.
+/// The built-in profiles.
 pub fn profiles() -> eamos_profile::ProfileTable {
-    let mut t = eamos_profile::ProfileTable::new();
-    let q = include_str!(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../mid/profiles/quadcopter.toml"
-    ));
-    t.insert(
-        eamos_profile::ProfileTable::parse_profile(q).expect("the quadcopter profile is valid"),
-    )
-    .expect("one profile");
-    t
+    eamos_profile::builtin()
 }
 
 /// The directory of the paper's missions, beside the repository.
