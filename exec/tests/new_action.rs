@@ -7,10 +7,10 @@
 
 use std::sync::Arc;
 
-use eamos_exec::fleet::Fleet;
 use eamos_exec::log::{read_mission_log, MissionEvent};
 use eamos_exec::runner::{run_fleet, RunOptions};
 use eamos_exec::Outcome;
+use eamos_fleet::Fleet;
 use eamos_lang::SourceFile;
 use eamos_mid::{
     ActionCall, Adapter, CancellationToken, NullSink, SimConfig, SimDroneSpec, SimFleet, Vec3,
