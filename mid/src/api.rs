@@ -32,6 +32,7 @@ pub use eamos_geo::Vec3;
 pub use tokio_util::sync::CancellationToken;
 
 use crate::clock::MissionClock;
+use crate::failsafe::Failsafe;
 
 /// One action invocation as the mission states it: `Drone1.FlyTo(1, 2, 3)`
 /// is `ActionCall { name: "FlyTo", args: [1.0, 2.0, 3.0] }`.
@@ -377,10 +378,10 @@ pub trait Adapter: Send + Sync {
 
     /// Puts the drone into a failsafe (the mission was aborted, or a peer
     /// it waits on was lost). The default flies the adapter's own `Land`
-    /// and `ReturnHome` actions (see [`crate::failsafe::fly`]); an adapter
+    /// and `ReturnHome` actions (see [`fly_failsafe`]); an adapter
     /// whose platform has a better native failsafe may override it.
-    async fn failsafe(&self, kind: crate::failsafe::Failsafe) -> Result<(), ActionError> {
-        crate::failsafe::fly(self, kind).await
+    async fn failsafe(&self, kind: Failsafe) -> Result<(), ActionError> {
+        fly_failsafe(self, kind).await
     }
 
     /// The point relative moves (`FlyByX`, `ReturnHome`'s height) start
@@ -608,6 +609,30 @@ impl MultirotorAction {
             MultirotorAction::TurnOnCamera => "TurnOnCamera",
             MultirotorAction::AdjustCamera => "AdjustCamera",
             MultirotorAction::TakePhoto => "TakePhoto",
+        }
+    }
+}
+
+/// Flies `kind` with `adapter`'s own `Land` and `ReturnHome` actions (the
+/// default of [`Adapter::failsafe`]). A drone on the ground has nothing to
+/// do. The caller cancels whatever the drone was doing first.
+pub async fn fly_failsafe<A: Adapter + ?Sized>(
+    adapter: &A,
+    kind: Failsafe,
+) -> Result<(), ActionError> {
+    if adapter.telemetry().borrow().landed {
+        return Ok(());
+    }
+    let run = |name: &str| {
+        let call = ActionCall::new(name, Vec::<f64>::new());
+        async move { adapter.run(&call, CancellationToken::new()).await }
+    };
+    match kind {
+        Failsafe::Hold => Ok(()),
+        Failsafe::Land => run("Land").await,
+        Failsafe::Home => {
+            run("ReturnHome").await?;
+            run("Land").await
         }
     }
 }

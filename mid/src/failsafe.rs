@@ -2,13 +2,14 @@
 //! file declares (`hold`, `land`, `home`), flown through the adapter's own
 //! actions so that the simulator and a MAVLink autopilot do the same thing
 //! in their own way (`Land` is the autopilot's LAND mode, `ReturnHome` its
-//! position target above home).
+//! position target above home). How an adapter flies one by default is
+//! [`crate::api::fly_failsafe`], beside the trait it belongs to: this module
+//! is data, so the drone API can name it without the two importing each
+//! other.
 
 use std::fmt;
 
 use serde::{Deserialize, Serialize};
-
-use crate::api::{ActionCall, ActionError, Adapter, CancellationToken};
 
 /// A failsafe: where a drone goes when it stops flying its mission.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -37,27 +38,6 @@ impl Failsafe {
 impl fmt::Display for Failsafe {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-/// Flies `kind` with `adapter`'s own `Land` and `ReturnHome` actions (the
-/// default of [`Adapter::failsafe`]). A drone on the ground has nothing to
-/// do. The caller cancels whatever the drone was doing first.
-pub async fn fly<A: Adapter + ?Sized>(adapter: &A, kind: Failsafe) -> Result<(), ActionError> {
-    if adapter.telemetry().borrow().landed {
-        return Ok(());
-    }
-    let run = |name: &str| {
-        let call = ActionCall::new(name, Vec::<f64>::new());
-        async move { adapter.run(&call, CancellationToken::new()).await }
-    };
-    match kind {
-        Failsafe::Hold => Ok(()),
-        Failsafe::Land => run("Land").await,
-        Failsafe::Home => {
-            run("ReturnHome").await?;
-            run("Land").await
-        }
     }
 }
 
