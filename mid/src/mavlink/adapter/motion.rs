@@ -194,6 +194,25 @@ impl Shared {
             r = arrived => r,
             _ = resend => unreachable!("resending never ends"),
         };
+        self.motion_outcome(action, outcome, || {
+            let p = self.telemetry.borrow().position;
+            format!(
+                "arrival within {tolerance} m of {target} (still {:.2} m away)",
+                p.distance(target)
+            )
+        })
+        .await
+    }
+
+    /// What the wait of a motion comes to: a cancelled motion holds where
+    /// it is before it says so; any other halt is an error naming what it
+    /// was `waiting_for`.
+    pub(super) async fn motion_outcome(
+        &self,
+        action: &str,
+        outcome: Result<(), Halt>,
+        waiting_for: impl FnOnce() -> String,
+    ) -> Result<(), ActionError> {
         match outcome {
             Ok(()) => Ok(()),
             Err(Halt::Cancelled) => {
@@ -202,13 +221,7 @@ impl Shared {
                     action: action.to_string(),
                 })
             }
-            Err(h) => Err(self.halt_error(action, h, || {
-                let p = self.telemetry.borrow().position;
-                format!(
-                    "arrival within {tolerance} m of {target} (still {:.2} m away)",
-                    p.distance(target)
-                )
-            })),
+            Err(h) => Err(self.halt_error(action, h, waiting_for)),
         }
     }
 

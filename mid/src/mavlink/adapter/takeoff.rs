@@ -11,7 +11,7 @@ use crate::mavlink::dialect::MavCmd;
 use crate::mavlink::modes::ModeRole;
 use crate::mavlink::strategy::TakeoffStart;
 
-use super::shared::{Check, Halt, Shared};
+use super::shared::{Check, Shared};
 
 impl Shared {
     pub(super) async fn takeoff(
@@ -138,21 +138,13 @@ impl Shared {
                 }
             })
             .await;
-        match climbed {
-            Ok(()) => Ok(()),
-            Err(Halt::Cancelled) => {
-                self.hold(action).await;
-                Err(ActionError::Cancelled {
-                    action: action.to_string(),
-                })
-            }
-            Err(h) => Err(self.halt_error(action, h, || {
-                let z = self.telemetry.borrow().position.z;
-                format!(
-                    "the climb to {height} m above the take-off point (now {:.2} m above it)",
-                    z - ground.z
-                )
-            })),
-        }
+        self.motion_outcome(action, climbed, || {
+            let z = self.telemetry.borrow().position.z;
+            format!(
+                "the climb to {height} m above the take-off point (now {:.2} m above it)",
+                z - ground.z
+            )
+        })
+        .await
     }
 }
