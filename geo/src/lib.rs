@@ -12,6 +12,8 @@
 //!   `map_3d` crate: no hand-made flat-earth approximations).
 //! - [`Home`]: a drone's home, given in local metres or in WGS84.
 //! - [`distance`]: closest approach of points and segments in 3D.
+//! - [`Airspace`]: a fence, a ceiling, a floor and the separation drones
+//!   keep.
 //! - [`Fence`]: a polygon of the local plane, and whether a point or a whole
 //!   leg stays inside it.
 //!
@@ -19,6 +21,7 @@
 //! missions, nets, drones or transports; it does no I/O and never panics on
 //! any input (a degenerate polygon or segment is an answer, not a crash).
 
+mod airspace;
 pub mod distance;
 mod fence;
 mod frame;
@@ -27,6 +30,7 @@ mod ned;
 mod vec3;
 mod wgs84;
 
+pub use airspace::{Airspace, Breach, DEFAULT_SEPARATION};
 pub use distance::{point_segment, segment_segment, Approach};
 pub use fence::{Fence, FenceError};
 pub use frame::LocalFrame;
