@@ -71,6 +71,49 @@ pub struct PropertySig {
 pub struct Param {
     pub name: String,
     pub kind: ParamKind,
+    /// The least value the argument may take (`min = 0.0`: a duration is
+    /// never negative).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min: Option<f64>,
+    /// The argument must be strictly above this (`above = 0.0`: a take-off
+    /// climbs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub above: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max: Option<f64>,
+    /// A height that must stay at or below the airspace's ceiling (the
+    /// checker knows the ceiling from the fleet file; the profile does not).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub ceiling: bool,
+}
+
+impl Param {
+    /// Why `value` is out of the parameter's declared range, if it is
+    /// (`ceiling` is the airspace's, when there is one).
+    pub fn out_of_range(&self, value: f64, ceiling: Option<f64>) -> Option<String> {
+        if let Some(m) = self.min {
+            if value < m {
+                return Some(format!("`{}` must be at least {m}", self.name));
+            }
+        }
+        if let Some(a) = self.above {
+            if value <= a {
+                return Some(format!("`{}` must be above {a}", self.name));
+            }
+        }
+        if let Some(m) = self.max {
+            if value > m {
+                return Some(format!("`{}` must be at most {m}", self.name));
+            }
+        }
+        match ceiling {
+            Some(c) if self.ceiling && value > c => Some(format!(
+                "`{}` must be at most the airspace's ceiling, {c} m",
+                self.name
+            )),
+            _ => None,
+        }
+    }
 }
 
 /// What an argument must be.

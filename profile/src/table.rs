@@ -83,6 +83,15 @@ fn validate(profile: &Profile) -> Result<(), ProfileError> {
 
 fn validate_action(profile: &Profile, sig: &ActionSig) -> Result<(), String> {
     let kind_of = |p: &str| sig.params.iter().find(|q| q.name == p).map(|q| q.kind);
+    for p in &sig.params {
+        let bounds = [p.min, p.above, p.max];
+        if bounds.iter().flatten().any(|b| !b.is_finite()) {
+            return Err(format!("the range of `{}` is not finite", p.name));
+        }
+        if (bounds.iter().any(Option::is_some) || p.ceiling) && !p.kind.is_numeric() {
+            return Err(format!("`{}` is not a number: it has no range", p.name));
+        }
+    }
     if let Some(motion) = &sig.motion {
         for p in motion.params() {
             if kind_of(p) != Some(ParamKind::Metres) {

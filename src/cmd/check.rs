@@ -31,6 +31,20 @@ pub struct Args {
     /// for comparison with other tools).
     #[arg(long)]
     pub no_reduction: bool,
+    /// The fleet file: the drones' homes and the airspace (fence, ceiling,
+    /// floor, separation) the spatial properties are checked against.
+    /// Without one: the homes `eamos run` uses, no fence, no ceiling.
+    #[arg(long, value_name = "FLEET")]
+    pub fleet: Option<PathBuf>,
+    /// Draw the plan view of the spatial findings (homes, fence, the legs
+    /// involved, the points of closest approach) to this SVG file.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Leave out the spatial properties (separation, airspace, flight
+    /// state): the logic alone, as before a fleet is known, or to time
+    /// what they cost.
+    #[arg(long)]
+    pub no_spatial: bool,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -45,7 +59,7 @@ pub fn run(args: Args) -> ExitCode {
             )
         }
     };
-    let options = Options {
+    let mut options = Options {
         reduction: !args.no_reduction,
         max_memory_mb: args.max_memory,
         progress: if args.json {
@@ -53,6 +67,8 @@ pub fn run(args: Args) -> ExitCode {
         } else {
             eamos_verify::terminal_progress()
         },
+        spatial: !args.no_spatial,
+        ..Options::default()
     };
     let style = Style {
         width: 100,
@@ -91,7 +107,33 @@ pub fn run(args: Args) -> ExitCode {
                     );
                 }
                 let net = eamos_petri::compile(&compiled.mission, &profiles);
-                eamos_verify::check_net(&net, &profiles, Some(&source.text), &options)
+                let fleet = match &args.fleet {
+                    Some(path) => match eamos_fleet::Fleet::load(path, &net.name, &net.drones) {
+                        Ok(f) => f,
+                        Err(e) => {
+                            return bad_input(
+                                &args,
+                                json!({"file": path.display().to_string(), "message": e.to_string()}),
+                                &format!("error: {e}"),
+                            )
+                        }
+                    },
+                    None => eamos_fleet::Fleet::default(),
+                };
+                let space = super::mission::space(&fleet, &net.drones);
+                options.space = Some(space.clone());
+                let report = eamos_verify::check_net(&net, &profiles, Some(&source.text), &options);
+                if let Some(svg) = &args.svg {
+                    let drawing = super::plan::svg(&report, &space, &net.drones);
+                    if let Err(e) = std::fs::write(svg, drawing) {
+                        return bad_input(
+                            &args,
+                            json!({"file": svg.display().to_string(), "message": format!("cannot write the plan view: {e}")}),
+                            &format!("error: cannot write {}: {e}", svg.display()),
+                        );
+                    }
+                }
+                report
             }
             Err(diags) => {
                 let records: Vec<_> = diags.iter().map(|d| d.record(&source)).collect();

@@ -62,6 +62,11 @@ pub struct Args {
     /// How long the ground station waits for the started drones.
     #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
     pub startup_timeout: f64,
+    /// Fly even when `eamos check` finds errors in the mission (two drones
+    /// that can meet, a leg out of the airspace...): the findings are
+    /// printed either way.
+    #[arg(long)]
+    pub allow_findings: bool,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -79,13 +84,7 @@ pub fn run(args: Args) -> ExitCode {
             return bad_input(&format!("--max-duration must be above zero, not {d}"));
         }
     }
-    let Mission {
-        source,
-        profiles,
-        slices,
-        fleet,
-        ..
-    } = match mission::load(
+    let loaded = match mission::load(
         &args.mission,
         args.fleet.as_deref(),
         std::io::stderr().is_terminal(),
@@ -93,6 +92,20 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
+    if let Err(status) = mission::preflight(
+        &loaded,
+        args.allow_findings,
+        std::io::stderr().is_terminal(),
+    ) {
+        return status;
+    }
+    let Mission {
+        source,
+        profiles,
+        slices,
+        fleet,
+        ..
+    } = loaded;
     let key = match rollout::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),

@@ -62,3 +62,47 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
         fleet,
     })
 }
+
+/// Where the fleet flies, as the checker needs it: every drone's home (the
+/// fleet file's, or the default row) and the airspace.
+pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
+    eamos_verify::Space {
+        homes: drones
+            .iter()
+            .enumerate()
+            .map(|(i, d)| fleet.home(d, i))
+            .collect(),
+        airspace: eamos_geo::Airspace::default(),
+    }
+}
+
+/// Checks the mission with its fleet before it flies. An error finding
+/// (a deadlock, two drones that can meet, a leg out of the airspace, a
+/// motion before take-off...) stops it, unless the user said
+/// `--allow-findings`; either way the findings are printed first.
+pub fn preflight(m: &Mission, allow_findings: bool, colour: bool) -> Result<(), ExitCode> {
+    let options = eamos_verify::Options {
+        space: Some(space(&m.fleet, &m.net.drones)),
+        ..eamos_verify::Options::default()
+    };
+    let report = eamos_verify::check_net(&m.net, &m.profiles, Some(&m.source.text), &options);
+    let errors = report.findings.iter().filter(|f| f.kind.is_error()).count();
+    if report.findings.is_empty() {
+        return Ok(());
+    }
+    eprint!("{}", report.render(&m.source, colour));
+    if errors == 0 {
+        return Ok(());
+    }
+    if allow_findings {
+        eprintln!(
+            "warning: flying with {errors} error finding(s) of `eamos check`, as --allow-findings says"
+        );
+        Ok(())
+    } else {
+        eprintln!(
+            "error: `eamos check` found {errors} error(s) in this mission: not flying it (fix them, or fly anyway with --allow-findings)"
+        );
+        Err(ExitCode::from(1))
+    }
+}

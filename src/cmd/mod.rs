@@ -10,5 +10,6 @@ pub mod deploy;
 pub mod gen;
 pub mod keygen;
 pub mod mission;
+pub mod plan;
 pub mod run;
 pub mod sim_vehicle;

@@ -77,6 +77,11 @@ pub struct Args {
     /// exactly once, and appends to its logs.
     #[arg(long, value_name = "DIR")]
     pub journal: Option<PathBuf>,
+    /// Fly even when `eamos check` finds errors in the mission (two drones
+    /// that can meet, a leg out of the airspace...): the findings are
+    /// printed either way.
+    #[arg(long)]
+    pub allow_findings: bool,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -96,14 +101,7 @@ pub fn run(args: Args) -> ExitCode {
     if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
         return bad_input("--startup-timeout must be zero or more seconds");
     }
-    let Mission {
-        source,
-        profiles,
-        net,
-        slices,
-        fleet,
-        ..
-    } = match mission::load(
+    let loaded = match mission::load(
         &args.mission,
         args.fleet.as_deref(),
         std::io::stderr().is_terminal(),
@@ -111,6 +109,21 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
+    if let Err(status) = mission::preflight(
+        &loaded,
+        args.allow_findings,
+        std::io::stderr().is_terminal(),
+    ) {
+        return status;
+    }
+    let Mission {
+        source,
+        profiles,
+        net,
+        slices,
+        fleet,
+        ..
+    } = loaded;
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match eamos_rollout::trusted_key(&fleet) {

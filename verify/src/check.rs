@@ -27,6 +27,7 @@ use crate::report::{
     Finding, FindingKind, InputKind, Label, Limit, Property, PropertyResult, Report, Stats, Step,
     Trace, Verdict,
 };
+use crate::space;
 use crate::structural::Concurrency;
 use eamos_lang::Span;
 
@@ -40,6 +41,11 @@ pub struct Options {
     pub max_memory_mb: u64,
     /// Called after each chunk of states with (states stored, states expanded).
     pub progress: Option<Arc<dyn Fn(usize, usize) + Send + Sync>>,
+    /// Decide the spatial properties (separation, airspace, flight state);
+    /// on by default, off to measure what they cost.
+    pub spatial: bool,
+    /// Homes and airspace (a fleet file's); `None`: the default fleet.
+    pub space: Option<crate::Space>,
 }
 
 impl Default for Options {
@@ -48,6 +54,8 @@ impl Default for Options {
             reduction: true,
             max_memory_mb: 4096,
             progress: None,
+            spatial: true,
+            space: None,
         }
     }
 }
@@ -89,6 +97,8 @@ pub(crate) struct Subject {
     /// Why the net is not worth exploring (empty if it is): the exploration
     /// is then skipped rather than run for minutes to its memory bound.
     pub limits: Vec<Limit>,
+    /// The spatial properties' part of the mission (mission input).
+    pub space: Option<space::Prepared>,
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
@@ -103,9 +113,18 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         loops,
         waits,
         limits,
+        space,
     } = subject;
     if !limits.is_empty() {
-        return unexplored(name, input, &pt, conditions, limits);
+        let reason = format!("not explored, see `eamos::{}`", limits[0].code);
+        let (props, found) = spatial_results(space.as_ref(), Err(reason));
+        let mut report = unexplored(name, input, &pt, conditions, limits);
+        report.properties.retain(|r| !props.iter().any(|q| q.property == r.property));
+        report.properties.extend(props);
+        report.properties.sort_by_key(|r| r.property);
+        report.findings.extend(found);
+        report.findings.sort_by_key(|f| f.kind);
+        return report;
     }
     let final_consumed = pt
         .final_place
@@ -146,7 +165,14 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
                 .iter()
                 .map(|&(t, place)| MonitorKind::Unsafe { t, place }),
         );
-        let net = pt.clone().with_monitors(monitors);
+        let ext = space
+            .as_ref()
+            .map(|prep| space::extend(pt.clone(), &conc, prep));
+        let base = ext.as_ref().map_or_else(|| pt.clone(), |e| e.net.clone());
+        if let Some(e) = &ext {
+            monitors.extend(e.monitors.iter().cloned());
+        }
+        let net = base.with_monitors(monitors);
         let ex = explore::explore::<Bits>(&net, &cfg);
         let unsafe_hit = matches!(ex.stop, Some(Stop::Unsafe { .. }))
             || net
@@ -161,6 +187,46 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
                 "breadth-first exploration, full"
             };
             ctx.evaluate::<Bits>(&net, &ex, method, Some(structurally_safe));
+            let near = match (&space, &ext) {
+                (Some(prep), Some(e)) => {
+                    let hits: Vec<(u32, usize)> = net
+                        .monitors
+                        .iter()
+                        .zip(&ex.monitor_hits)
+                        .filter_map(|(m, h)| match (m, h) {
+                            (MonitorKind::Near { pair, .. }, Some(s)) => Some((*s, *pair as usize)),
+                            _ => None,
+                        })
+                        .collect();
+                    let found = space::near_findings(prep, e, &hits, &|s| {
+                        ctx.trace::<Bits>(&net, &ex, s)
+                    });
+                    let undecided = if let Some(n) = e.too_many {
+                        Some(format!(
+                            "{n} pairs of legs or rests of two drones come within the separation: too many to watch at once (at most {}); space the drones apart or order them",
+                            space::MAX_WATCHED
+                        ))
+                    } else if !ex.complete() {
+                        Some(Ctx::stopped_reason(&ex))
+                    } else if !e.unordered.is_empty() {
+                        Some(format!(
+                            "{} can fly two legs at once (see the conflicts), so where it rests is not known",
+                            e.unordered
+                                .iter()
+                                .map(|&d| prep.names.drone(d))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ))
+                    } else {
+                        None
+                    };
+                    Ok((found, undecided))
+                }
+                _ => Err("no spatial model".to_string()),
+            };
+            let (props, found) = spatial_results(space.as_ref(), near);
+            ctx.properties.extend(props);
+            ctx.findings.extend(found);
             return ctx.finish(name, &net, &ex, method, conditions);
         }
     }
@@ -174,6 +240,12 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
     let ex = explore::explore::<Bytes>(&net, &cfg);
     let method = "breadth-first exploration, full, with token counts";
     ctx.evaluate::<Bytes>(&net, &ex, method, None);
+    let (props, found) = spatial_results(
+        space.as_ref(),
+        Err("the net is not 1-safe: see that finding".into()),
+    );
+    ctx.properties.extend(props);
+    ctx.findings.extend(found);
     ctx.finish(name, &net, &ex, method, conditions)
 }
 
@@ -260,6 +332,7 @@ impl Ctx {
                     labels: grows_labels::<E>(net, m, a),
                     notes: self.bug_note(),
                     trace: Some(trace),
+                    geometry: None,
                 });
                 self.properties.push(result(
                     Property::Safety,
@@ -279,6 +352,7 @@ impl Ctx {
                     labels: place_label(net, *place, "here"),
                     notes: self.bug_note(),
                     trace: Some(self.trace::<E>(net, ex, *state)),
+                    geometry: None,
                 });
                 self.properties.push(result(
                     Property::Safety,
@@ -319,6 +393,7 @@ impl Ctx {
                             labels: place_label(net, p, "two tokens here"),
                             notes: self.bug_note(),
                             trace: Some(self.trace::<E>(net, ex, id)),
+                            geometry: None,
                         });
                         self.properties.push(result(
                             Property::Safety,
@@ -456,6 +531,7 @@ impl Ctx {
                             .into(),
                     ],
                     trace: None,
+                    geometry: None,
                 });
             }
             self.properties.push(result(
@@ -532,6 +608,7 @@ impl Ctx {
                         x.drone
                     )],
                     trace: Some(self.trace::<E>(net, ex, state)),
+                    geometry: None,
                 });
             }
             let verdict = if any {
@@ -636,6 +713,7 @@ impl Ctx {
             labels,
             notes: Vec::new(),
             trace: Some(self.trace::<E>(net, ex, d)),
+            geometry: None,
         }
     }
 
@@ -800,6 +878,7 @@ impl Ctx {
             labels,
             notes: Vec::new(),
             trace: Some(trace),
+            geometry: None,
         }
     }
 
@@ -839,6 +918,91 @@ impl Ctx {
             },
         }
     }
+}
+
+/// The near findings of an exploration and why, if so, the separation is
+/// not decided although nothing was found.
+type Near = Result<(Vec<Finding>, Option<String>), String>;
+
+/// The verdicts of the spatial properties and their findings.
+fn spatial_results(
+    prep: Option<&space::Prepared>,
+    near: Near,
+) -> (Vec<PropertyResult>, Vec<Finding>) {
+    let Some(prep) = prep else {
+        let na = |p| {
+            result(
+                p,
+                Verdict::NotApplicable("a plain net has no drones".into()),
+                "-",
+            )
+        };
+        return (
+            vec![
+                na(Property::Separation),
+                na(Property::Airspace),
+                na(Property::FlightState),
+            ],
+            Vec::new(),
+        );
+    };
+    let mut findings = Vec::new();
+    let mut props = Vec::new();
+    let mut decided = |p: Property, r: &Result<Vec<Finding>, String>, method: &str| match r {
+        Ok(f) => {
+            findings.extend(f.iter().cloned());
+            let v = if f.is_empty() {
+                Verdict::Holds
+            } else {
+                Verdict::Violated
+            };
+            result(p, v, method)
+        }
+        Err(why) => result(p, Verdict::Unknown(why.clone()), method),
+    };
+    props.push(decided(
+        Property::Airspace,
+        &prep.airspace,
+        "every leg of every drone, followed from home through every branch and counted loop round",
+    ));
+    props.push(decided(
+        Property::FlightState,
+        &prep.flight,
+        "each drone's actions followed in order from home, where it stands disarmed",
+    ));
+    let homes = space::homes_findings(prep);
+    let sep = prep.space.airspace.separation;
+    let method = format!(
+        "legs and rests of every two drones within {sep} m, watched in the exploration"
+    );
+    let mut found = homes;
+    let undecided = match near {
+        Ok((f, undecided)) => {
+            found.extend(f);
+            undecided
+        }
+        Err(why) => Some(why),
+    };
+    let undecided = undecided.or_else(|| match &prep.positions {
+        Err(why) => Some(why.clone()),
+        Ok(p) if !p.drifts.is_empty() => Some(
+            "a drone drifts without bound (see the airspace finding), so not all of its legs are known"
+                .into(),
+        ),
+        Ok(_) => None,
+    });
+    let verdict = if !found.is_empty() {
+        Verdict::Violated
+    } else if let Some(why) = undecided {
+        Verdict::Unknown(why)
+    } else {
+        Verdict::Holds
+    };
+    let mut r = result(Property::Separation, verdict, method);
+    r.notes.push(format!("separation {sep} m"));
+    props.push(r);
+    findings.extend(found);
+    (props, findings)
 }
 
 /// The verdict on conditions, which needs no exploration; its findings go

@@ -28,13 +28,15 @@ mod mission;
 pub mod pnml;
 mod ptnet;
 pub mod report;
+mod space;
 mod structural;
 
 pub use check::Options;
 pub use pnml::{PnmlError, PnmlNet};
+pub use space::{default_home, Space};
 pub use report::{
-    Finding, FindingKind, InputKind, Label, Limit, Property, PropertyResult, Report, Stats, Step,
-    Trace, Verdict,
+    Finding, FindingKind, GeoLeg, Geometry, InputKind, Label, Limit, Property, PropertyResult,
+    Report, Stats, Step, Trace, Verdict,
 };
 
 use eamos_petri::Net;
@@ -48,7 +50,18 @@ pub fn check_net(
     source: Option<&str>,
     options: &Options,
 ) -> Report {
-    check::check(mission::subject(net, profiles, source), options)
+    let space = options
+        .spatial
+        .then(|| {
+            options
+                .space
+                .clone()
+                .unwrap_or_else(|| Space::default_for(net.drones.len()))
+        });
+    check::check(
+        mission::subject(net, profiles, source, space.as_ref()),
+        options,
+    )
 }
 
 /// Checks a plain P/T net read from PNML: deadlock, termination (when a

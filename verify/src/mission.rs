@@ -31,6 +31,7 @@ use crate::check::{ActionInfo, Subject};
 use crate::conditions::{self, Domain, Possibility};
 use crate::ptnet::{PlaceInfo, PtNet, RawTransition, StepInfo};
 use crate::report::{Finding, FindingKind, InputKind, Label, Limit};
+use crate::space::{airspace, flight, model, Names, Prepared, Space};
 
 fn fmt_num(v: f64) -> String {
     if v.fract() == 0.0 && v.abs() < 1e15 {
@@ -178,7 +179,12 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
 }
 
 /// Builds what the checker needs from a mission net.
-pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> Subject {
+pub(crate) fn subject(
+    net: &Net,
+    profiles: &ProfileTable,
+    src: Option<&str>,
+    space: Option<&Space>,
+) -> Subject {
     let domain = |d: DroneId, name: &str| -> Option<Domain> {
         let profile = profiles.get(net.profiles.get(d.0 as usize)?)?;
         let sig = profile.properties.get(name)?;
@@ -300,6 +306,8 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
     }
     let mut steps = Vec::new();
     let mut raw = Vec::new();
+    // The transition of the net each compact transition copies.
+    let mut origins: Vec<NodeId> = Vec::new();
     let mut starts = Vec::new();
     let mut loops = Vec::new();
     let mut waits = Vec::new();
@@ -405,6 +413,7 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
             }
             steps.push(info.clone());
             raw.push(r);
+            origins.push(n);
         }
     }
     // Running places of an action take the action's span when they have none.
@@ -436,6 +445,7 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
     }
     exclusive.sort_unstable();
     let final_place = Some(place_index[net.final_place.index()]);
+    let space = space.map(|space| prepare(net, profiles, src, space, &place_index, &origins));
     Subject {
         pt: PtNet::new(places, steps, raw, initial, final_place),
         input: InputKind::Mission,
@@ -447,6 +457,54 @@ pub(crate) fn subject(net: &Net, profiles: &ProfileTable, src: Option<&str>) -> 
         loops,
         waits,
         limits,
+        space,
+    }
+}
+
+/// The spatial model of the mission, tied to the compact net's indices.
+fn prepare(
+    net: &Net,
+    profiles: &ProfileTable,
+    src: Option<&str>,
+    space: &Space,
+    place_index: &[u32],
+    origins: &[NodeId],
+) -> Prepared {
+    let names = Names::new(net, src);
+    let too_large = |_| "the mission is too large to follow every drone's legs".to_string();
+    let positions = model::positions(net, profiles).map_err(too_large);
+    let flight = flight::findings(net, profiles, &space.airspace, &names).map_err(too_large);
+    let airspace = match &positions {
+        Ok(p) => Ok(airspace::findings(p, space, &names)),
+        Err(e) => Err(e.clone()),
+    };
+    let mut by_origin: HashMap<NodeId, Vec<u32>> = HashMap::new();
+    for (i, &o) in origins.iter().enumerate() {
+        by_origin.entry(o).or_default().push(i as u32);
+    }
+    let compact = |ts: &[NodeId]| -> Vec<u32> {
+        ts.iter()
+            .flat_map(|t| by_origin.get(t).cloned().unwrap_or_default())
+            .collect()
+    };
+    let (running, ends, cancels) = match &positions {
+        Ok(p) => (
+            p.motions.iter().map(|t| place_index[t.running.index()]).collect(),
+            p.motions.iter().map(|t| compact(&t.ends)).collect(),
+            p.motions.iter().map(|t| compact(&t.cancels)).collect(),
+        ),
+        Err(_) => Default::default(),
+    };
+    Prepared {
+        space: space.clone(),
+        drones: net.drones.clone(),
+        positions,
+        airspace,
+        flight,
+        running,
+        ends,
+        cancels,
+        names,
     }
 }
 
@@ -558,5 +616,6 @@ fn condition_finding(
         }],
         notes,
         trace: None,
+        geometry: None,
     }
 }

@@ -597,5 +597,6 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
         loops: Vec::new(),
         waits: Vec::new(),
         limits: Vec::new(),
+        space: None,
     }
 }

@@ -88,6 +88,10 @@ pub(crate) enum MonitorKind {
     /// Transition `t` could fire while `place`, which it produces into, is
     /// already marked: two tokens.
     Unsafe { t: u32, place: u32 },
+    /// Two places whose marking together puts two drones closer than the
+    /// separation: a drone's leg under way (`a`) and another's leg or rest
+    /// (`b`); `pair` indexes the spatial candidates.
+    Near { a: u32, b: u32, pair: u32 },
 }
 
 /// The net as exploration sees it. Transitions `0..n_real` are the net's;
@@ -171,7 +175,7 @@ impl PtNet {
     }
 
     /// The raw arcs of the real transitions (to rebuild with monitors).
-    fn raw(&self) -> Vec<RawTransition> {
+    pub(crate) fn raw(&self) -> Vec<RawTransition> {
         (0..self.n_real)
             .map(|t| RawTransition {
                 pre: self.pre.get(t).to_vec(),
@@ -191,7 +195,9 @@ impl PtNet {
     fn rebuild(&mut self, mut transitions: Vec<RawTransition>, monitors: Vec<MonitorKind>) {
         for m in &monitors {
             let mut read = match *m {
-                MonitorKind::Conflict { a, b } => vec![(a, 1), (b, 1)],
+                MonitorKind::Conflict { a, b } | MonitorKind::Near { a, b, .. } => {
+                    vec![(a, 1), (b, 1)]
+                }
                 MonitorKind::Unsafe { t, place } => {
                     let t = &transitions[t as usize];
                     let mut r: Vec<(u32, u32)> = t.pre.clone();

@@ -9,6 +9,7 @@
 use std::fmt::Write as _;
 
 use eamos_lang::span::SourceFile;
+use eamos_geo::Vec3;
 use eamos_lang::Span;
 use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource};
 use serde_json::{json, Value};
@@ -22,16 +23,22 @@ pub enum Property {
     DeadActions,
     Conflicts,
     Conditions,
+    Separation,
+    Airspace,
+    FlightState,
 }
 
 impl Property {
-    pub const ALL: [Property; 6] = [
+    pub const ALL: [Property; 9] = [
         Property::Deadlock,
         Property::Termination,
         Property::Safety,
         Property::DeadActions,
         Property::Conflicts,
         Property::Conditions,
+        Property::Separation,
+        Property::Airspace,
+        Property::FlightState,
     ];
 
     /// The stable name used in JSON and in the text output.
@@ -43,6 +50,9 @@ impl Property {
             Property::DeadActions => "dead-actions",
             Property::Conflicts => "conflicts",
             Property::Conditions => "conditions",
+            Property::Separation => "separation",
+            Property::Airspace => "airspace",
+            Property::FlightState => "flight-state",
         }
     }
 
@@ -54,6 +64,11 @@ impl Property {
             Property::DeadActions => "every action can start",
             Property::Conflicts => "no drone runs two exclusive actions at once",
             Property::Conditions => "every condition can hold and can fail",
+            Property::Separation => "no two drones come closer than the separation",
+            Property::Airspace => "every leg stays inside the fence, below the ceiling, above the floor",
+            Property::FlightState => {
+                "every action starts in a flight state it may, with arguments in range"
+            }
         }
     }
 }
@@ -113,6 +128,16 @@ pub enum FindingKind {
     DroneConflict,
     ConditionNeverHolds,
     ConditionAlwaysHolds,
+    /// Two drones can come closer than the separation.
+    TooClose,
+    /// A leg leaves the fence, or climbs above the ceiling or below the floor.
+    LeavesAirspace,
+    /// A loop moves a drone further every round, without bound.
+    Drift,
+    /// An action can start in a flight state its profile does not allow.
+    FlightState,
+    /// An argument is outside the range its profile declares.
+    ArgumentRange,
 }
 
 impl FindingKind {
@@ -126,6 +151,11 @@ impl FindingKind {
             FindingKind::DroneConflict => "drone-conflict",
             FindingKind::ConditionNeverHolds => "condition-never-holds",
             FindingKind::ConditionAlwaysHolds => "condition-always-holds",
+            FindingKind::TooClose => "too-close",
+            FindingKind::LeavesAirspace => "leaves-airspace",
+            FindingKind::Drift => "drift",
+            FindingKind::FlightState => "flight-state",
+            FindingKind::ArgumentRange => "argument-range",
         }
     }
 
@@ -139,6 +169,9 @@ impl FindingKind {
             FindingKind::ConditionNeverHolds | FindingKind::ConditionAlwaysHolds => {
                 Property::Conditions
             }
+            FindingKind::TooClose => Property::Separation,
+            FindingKind::LeavesAirspace | FindingKind::Drift => Property::Airspace,
+            FindingKind::FlightState | FindingKind::ArgumentRange => Property::FlightState,
         }
     }
 
@@ -195,6 +228,30 @@ pub struct Finding {
     pub labels: Vec<Label>,
     pub notes: Vec<String>,
     pub trace: Option<Trace>,
+    /// Where in space, for the findings of the spatial properties.
+    pub geometry: Option<Geometry>,
+}
+
+/// The shapes a spatial finding is about, in the fleet frame (metres north,
+/// east and up of the fleet's origin), for a plan view to draw.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Geometry {
+    pub legs: Vec<GeoLeg>,
+    /// The two points of closest approach (or, for a leg leaving the
+    /// airspace, the point where it leaves, twice).
+    pub closest: Option<(Vec3, Vec3)>,
+    pub distance: Option<f64>,
+}
+
+/// A leg (or a drone at rest: both ends the same) of one drone.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeoLeg {
+    pub drone: String,
+    pub from: Vec3,
+    pub to: Vec3,
+    /// Somewhere in the box between `from` and `to` (after a cancelled leg).
+    pub boxed: bool,
+    pub span: Option<Span>,
 }
 
 /// Where the checker stopped short of exploring, and why. Not a finding:
@@ -374,7 +431,10 @@ impl Report {
     ///       "notes": [str],
     ///       "counterexample": null | { "steps": [ { "transition", "kind",
     ///           "text", "internal", "span": span?, "condition_held": bool? } ],
-    ///         "cycle_from": int?, "marking": [ { "place", "tokens" } ] } } ],
+    ///         "cycle_from": int?, "marking": [ { "place", "tokens" } ] },
+    ///       "geometry": null | { "legs": [ { "drone", "from": [x, y, z],
+    ///           "to": [x, y, z], "boxed": bool, "span": span? } ],
+    ///         "closest": [[x, y, z], [x, y, z]]?, "distance": float? } } ],
     ///   "limits": [ { "code": str, "message": str, "spans": [ span ],
     ///       "notes": [str] } ],
     ///   "stats": { "places", "transitions", "states", "edges",
@@ -415,6 +475,20 @@ impl Report {
                         "marking": t.marking.iter().map(|(p, n)| json!({"place": p, "tokens": n})).collect::<Vec<_>>(),
                     })
                 });
+                let xyz = |v: Vec3| json!([v.x, v.y, v.z]);
+                let geometry = f.geometry.as_ref().map(|g| {
+                    json!({
+                        "legs": g.legs.iter().map(|l| json!({
+                            "drone": l.drone,
+                            "from": xyz(l.from),
+                            "to": xyz(l.to),
+                            "boxed": l.boxed,
+                            "span": l.span.map(span),
+                        })).collect::<Vec<_>>(),
+                        "closest": g.closest.map(|(a, b)| json!([xyz(a), xyz(b)])),
+                        "distance": g.distance,
+                    })
+                });
                 json!({
                     "kind": f.kind.name(),
                     "property": f.kind.property().name(),
@@ -423,6 +497,7 @@ impl Report {
                     "spans": spans,
                     "notes": f.notes,
                     "counterexample": trace,
+                    "geometry": geometry,
                 })
             })
             .collect();

@@ -1,0 +1,126 @@
+//! The spatial properties: `separation`, `airspace` and `flight-state`.
+//!
+//! [`model`] finds, per drone, every leg it can fly (from where it really
+//! is on each branch and in each round of a counted loop) and what it can
+//! rest at between legs. The properties are then decided in three ways:
+//! - `airspace` and `flight-state` need no interleaving: a leg leaves the
+//!   fence whoever else flies, and a drone's flight state is its own.
+//!   [`airspace`] and [`flight`] decide them from the model alone.
+//! - `separation` needs to know which legs can be under way at once. That
+//!   is what the net says, and the exploration answers it exactly on the
+//!   net's skeleton: [`extend`] gives each drone whose legs are ordered a
+//!   record of what it rests at (one token in one of its "last" places,
+//!   moved by each of its legs' ends) and adds a monitor for every leg and
+//!   leg, or leg and rest, of two drones that come within the separation
+//!   somewhere. A monitor that the exploration finds enabled is a finding,
+//!   with the interleaving that leads there.
+//!
+//! Conservative about timing (two legs under way at once are compared
+//! whole, wherever each drone is along its own), exact about causality
+//! (two legs that sequencing or `Signal`/`Await` orders are never both
+//! running in any reachable marking, so their monitor never fires).
+
+pub(crate) mod airspace;
+pub(crate) mod flight;
+pub(crate) mod model;
+mod near;
+pub(crate) mod shape;
+pub(crate) mod walk;
+
+use eamos_geo::{Airspace, Vec3};
+use eamos_lang::Span;
+use eamos_petri::net::{ActionRef, Net};
+
+pub(crate) use near::{extend, homes_findings, near_findings, MAX_WATCHED};
+
+/// Where the fleet flies: each drone's home in the fleet frame (in the
+/// order of the mission's drones) and the airspace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Space {
+    pub homes: Vec<Vec3>,
+    pub airspace: Airspace,
+}
+
+impl Space {
+    /// The fleet `eamos run` flies without a fleet file: drones in a row
+    /// along Y (east), 3 m apart, no fence, no ceiling, the default
+    /// separation.
+    pub fn default_for(drones: usize) -> Space {
+        Space {
+            homes: (0..drones).map(default_home).collect(),
+            airspace: Airspace::default(),
+        }
+    }
+
+    pub(crate) fn home(&self, drone: u16) -> Vec3 {
+        self.homes
+            .get(drone as usize)
+            .copied()
+            .unwrap_or_else(|| default_home(drone as usize))
+    }
+}
+
+/// Where a drone the fleet file does not place starts: the drones of a
+/// mission stand in a row along Y (east), 3 m apart, in declaration order.
+pub fn default_home(index: usize) -> Vec3 {
+    Vec3::new(0.0, 3.0 * index as f64, 0.0)
+}
+
+/// What the spatial properties need from the mission, prepared with the
+/// rest of the checker's subject.
+pub(crate) struct Prepared {
+    pub space: Space,
+    pub drones: Vec<String>,
+    pub positions: Result<model::Positions, String>,
+    /// Findings decided without exploring (airspace, flight states).
+    pub airspace: Result<Vec<crate::report::Finding>, String>,
+    pub flight: Result<Vec<crate::report::Finding>, String>,
+    /// Per motion of `positions`: its running place and the transitions
+    /// (indices of the compact net) that end and cancel it.
+    pub running: Vec<u32>,
+    pub ends: Vec<Vec<u32>>,
+    pub cancels: Vec<Vec<u32>>,
+    pub names: Names,
+}
+
+/// Names in mission terms: an action as written, a span's line.
+#[derive(Clone)]
+pub(crate) struct Names {
+    drones: Vec<String>,
+    lines: Vec<u32>,
+}
+
+impl Names {
+    pub(crate) fn new(net: &Net, src: Option<&str>) -> Self {
+        let lines = src
+            .map(|s| {
+                s.char_indices()
+                    .filter(|(_, c)| *c == '\n')
+                    .map(|(i, _)| i as u32)
+                    .collect()
+            })
+            .unwrap_or_default();
+        Names {
+            drones: net.drones.clone(),
+            lines,
+        }
+    }
+
+    pub(crate) fn drone(&self, d: u16) -> String {
+        self.drones.get(d as usize).cloned().unwrap_or_default()
+    }
+
+    pub(crate) fn action(&self, a: &ActionRef) -> String {
+        let args: Vec<String> = a.args.iter().map(|v| format!("{v}")).collect();
+        format!("{}.{}({})", self.drone(a.drone.0), a.name, args.join(", "))
+    }
+
+    /// `line N` of a span, or nothing without the source.
+    pub(crate) fn line(&self, span: Span) -> String {
+        if self.lines.is_empty() && span.start == 0 {
+            return String::new();
+        }
+        let line = self.lines.partition_point(|&nl| nl < span.start) + 1;
+        format!("line {line}")
+    }
+}

@@ -1,0 +1,251 @@
+//! Where every drone can be, leg by leg: the analysis the spatial
+//! properties stand on.
+//!
+//! Per drone, the motions it flies (actions whose profile declares a
+//! `motion`) in the order its control flow allows ([`crate::space::walk`]):
+//! from home, each motion's possible starts are the possible ends of the
+//! motions that can come just before it, so relative moves (`FlyByX`) are
+//! followed from where the drone really is on every branch and through
+//! every loop. Loop rounds of a `RepeatFor` are told apart by the token's
+//! colour; a loop that never brings the drone back (a net displacement per
+//! round, under a condition) would add new starts for ever: past
+//! [`MAX_STARTS`] at one step the drone is said to drift.
+
+use std::collections::{BTreeSet, HashMap, VecDeque};
+
+use eamos_geo::Vec3;
+use eamos_lang::Span;
+use eamos_petri::net::{ActionRef, Colour, Net, NodeId, PlaceKind, TransitionKind};
+use eamos_profile::{ActionSig, ProfileTable};
+
+use super::shape::Shape;
+use super::walk::{OutOfBudget, Walker};
+
+/// More distinct starts than this at one step of one round: a drift.
+pub(crate) const MAX_STARTS: usize = 24;
+
+/// Steps of all walks together before the analysis gives up.
+pub(crate) const WALK_BUDGET: usize = 40_000_000;
+
+/// One action instance of a drone that the analyses track.
+#[derive(Debug, Clone)]
+pub(crate) struct Tracked {
+    pub drone: u16,
+    pub running: NodeId,
+    pub action: ActionRef,
+    pub sig: ActionSig,
+    pub span: Span,
+    pub starts: Vec<NodeId>,
+    pub ends: Vec<NodeId>,
+    pub cancels: Vec<NodeId>,
+}
+
+/// The actions of a net whose profile entry `keep` selects, with their
+/// transitions.
+pub(crate) fn tracked(
+    net: &Net,
+    profiles: &ProfileTable,
+    keep: impl Fn(&ActionSig) -> bool,
+) -> Vec<Tracked> {
+    let mut out = Vec::new();
+    for (r, p) in net.places() {
+        let PlaceKind::Running(a) = &p.kind else {
+            continue;
+        };
+        let Some(sig) = net
+            .profiles
+            .get(a.drone.0 as usize)
+            .and_then(|name| profiles.get(name))
+            .and_then(|profile| profile.actions.get(&a.name))
+        else {
+            continue;
+        };
+        if !keep(sig) {
+            continue;
+        }
+        let mut t = Tracked {
+            drone: a.drone.0,
+            running: r,
+            action: a.clone(),
+            sig: sig.clone(),
+            span: p.span.unwrap_or_default(),
+            starts: net.producers(r).collect(),
+            ends: Vec::new(),
+            cancels: Vec::new(),
+        };
+        for (c, _) in net.consumers(r) {
+            match net.transition(c).map(|t| &t.kind) {
+                Some(TransitionKind::ActionCancel(_)) => t.cancels.push(c),
+                _ => t.ends.push(c),
+            }
+        }
+        if t.span == Span::default() {
+            if let Some(s) = t.starts.first().and_then(|&s| net.transition(s)) {
+                t.span = s.span;
+            }
+        }
+        out.push(t);
+    }
+    out
+}
+
+/// What a drone rests at before a motion starts: its home, the end of a
+/// motion, or somewhere on a motion that was cancelled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub(crate) enum Last {
+    Home,
+    End(usize),
+    Cancel(usize),
+}
+
+/// One way a motion can be flown.
+#[derive(Debug, Clone)]
+pub(crate) struct Leg {
+    pub sweep: Shape,
+    /// Loop rounds around it (outermost first), counted from 0.
+    pub colour: Colour,
+}
+
+/// A motion whose starts keep moving round after round.
+#[derive(Debug, Clone)]
+pub(crate) struct Drift {
+    pub motion: usize,
+    /// Its first starts, in the order they were found.
+    pub starts: Vec<Shape>,
+}
+
+/// Where every drone can be.
+#[derive(Debug, Default)]
+pub(crate) struct Positions {
+    pub motions: Vec<Tracked>,
+    pub legs: Vec<Vec<Leg>>,
+    /// Per motion: where the drone rests after it (ended; cancelled).
+    pub ends: Vec<Vec<Shape>>,
+    pub stops: Vec<Vec<Shape>>,
+    /// Per motion: what the drone can rest at just before it starts.
+    pub preds: Vec<BTreeSet<Last>>,
+    pub drifts: Vec<Drift>,
+}
+
+impl Positions {
+    /// The shapes a drone rests in when its last motion was `last`.
+    pub(crate) fn rest(&self, last: Last) -> Vec<Shape> {
+        match last {
+            Last::Home => vec![Shape::point(Vec3::ZERO)],
+            Last::End(m) => self.ends[m].clone(),
+            Last::Cancel(m) => self.stops[m].clone(),
+        }
+    }
+
+    /// Every rest of a drone (home, ends, stops), once each.
+    pub(crate) fn lasts(&self, drone: u16) -> Vec<Last> {
+        let mut out = vec![Last::Home];
+        for (m, t) in self.motions.iter().enumerate() {
+            if t.drone == drone {
+                out.push(Last::End(m));
+                if !t.cancels.is_empty() {
+                    out.push(Last::Cancel(m));
+                }
+            }
+        }
+        out
+    }
+}
+
+/// Follows every drone's motions from home.
+pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions, OutOfBudget> {
+    let motions = tracked(net, profiles, |sig| sig.motion.is_some());
+    let walker = Walker::new(net);
+    let mut start_of: HashMap<NodeId, usize> = HashMap::new();
+    for (m, t) in motions.iter().enumerate() {
+        for &s in &t.starts {
+            start_of.insert(s, m);
+        }
+    }
+    let n = motions.len();
+    let mut out = Positions {
+        legs: vec![Vec::new(); n],
+        ends: vec![Vec::new(); n],
+        stops: vec![Vec::new(); n],
+        preds: vec![BTreeSet::new(); n],
+        ..Positions::default()
+    };
+    let mut budget = WALK_BUDGET;
+    let mut work: VecDeque<(usize, Colour, Shape, Last)> = VecDeque::new();
+    let drones: BTreeSet<u16> = motions.iter().map(|t| t.drone).collect();
+    for &d in &drones {
+        let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
+        let reach = walker.walk(walker.initial(), &stop, true, &mut budget)?;
+        for (t, c) in reach.stops {
+            work.push_back((start_of[&t], c, Shape::point(Vec3::ZERO), Last::Home));
+        }
+    }
+    type Next = Vec<(usize, Colour)>;
+    let mut next: HashMap<(usize, Colour, bool), Next> = HashMap::new();
+    let mut starts: HashMap<(usize, Colour), (BTreeSet<[i64; 7]>, Vec<Shape>)> = HashMap::new();
+    let mut ends_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
+    let mut stops_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
+    let mut drifting: BTreeSet<(usize, Colour)> = BTreeSet::new();
+    while let Some((m, c, s, from)) = work.pop_front() {
+        out.preds[m].insert(from);
+        let entry = starts.entry((m, c.clone())).or_default();
+        if entry.0.contains(&s.key()) {
+            continue;
+        }
+        if entry.1.len() >= MAX_STARTS {
+            if drifting.insert((m, c.clone())) {
+                out.drifts.push(Drift {
+                    motion: m,
+                    starts: entry.1.clone(),
+                });
+            }
+            continue;
+        }
+        entry.0.insert(s.key());
+        entry.1.push(s);
+        let t = &motions[m];
+        let (end, sweep) = s
+            .fly(&t.sig, &t.action.args)
+            .unwrap_or((s, s));
+        out.legs[m].push(Leg {
+            sweep,
+            colour: c.clone(),
+        });
+        if ends_seen[m].insert(end.key()) {
+            out.ends[m].push(end);
+        }
+        let d = t.drone;
+        let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
+        for cancel in [false, true] {
+            let via = if cancel { &t.cancels } else { &t.ends };
+            if via.is_empty() {
+                continue;
+            }
+            let key = (m, c.clone(), cancel);
+            if !next.contains_key(&key) {
+                let seeds = via.iter().flat_map(|&e| walker.after(e, &c, true)).collect();
+                let reach = walker.walk(seeds, &stop, true, &mut budget)?;
+                let list = reach
+                    .stops
+                    .into_iter()
+                    .map(|(t, c)| (start_of[&t], c))
+                    .collect();
+                next.insert(key.clone(), list);
+            }
+            let (rest, last) = if cancel {
+                let rest = sweep.stopped_on();
+                if stops_seen[m].insert(rest.key()) {
+                    out.stops[m].push(rest);
+                }
+                (rest, Last::Cancel(m))
+            } else {
+                (end, Last::End(m))
+            };
+            for (m2, c2) in &next[&key] {
+                work.push_back((*m2, c2.clone(), rest, last));
+            }
+        }
+    }
+    out.motions = motions;
+    Ok(out)
+}

@@ -1,0 +1,445 @@
+//! `separation`: which legs and rests of two drones come within the
+//! separation, and the monitors that ask the exploration whether they can
+//! be marked at once.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use eamos_geo::Vec3;
+
+use super::model::{Last, Positions};
+use super::shape::{Closest, Shape};
+use super::Prepared;
+use crate::ptnet::{MonitorKind, PlaceInfo, PtNet};
+use crate::report::{Finding, FindingKind, GeoLeg, Geometry, Label};
+use crate::structural::Concurrency;
+
+/// Two shapes of two drones that come within the separation.
+#[derive(Debug, Clone)]
+pub(crate) struct Candidate {
+    /// The motion under way.
+    pub motion: usize,
+    pub other: Other,
+    pub closest: Closest,
+    /// The two shapes, fleet frame.
+    pub shapes: (Shape, Shape),
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Other {
+    /// Another drone's motion, under way at the same time.
+    Moving(usize),
+    /// Another drone at rest.
+    Resting(u16, Last),
+}
+
+/// The compact net with the drones' rest records, and its monitors.
+pub(crate) struct Extended {
+    pub net: PtNet,
+    pub monitors: Vec<MonitorKind>,
+    pub candidates: Vec<Candidate>,
+    /// Drones whose legs may overlap one another: their rests cannot be
+    /// recorded, so the separation is not decided for them.
+    pub unordered: Vec<u16>,
+    /// Set when more pairs come within the separation than
+    /// [`MAX_WATCHED`]: none is watched and the separation is undecided.
+    pub too_many: Option<usize>,
+}
+
+/// Monitors slow the exploration down (each one keeps the stubborn sets
+/// from leaving out what could enable it), and a mission with hundreds of
+/// close pairs has a problem a person must look at first: past this many
+/// the separation is left undecided, with the count.
+pub(crate) const MAX_WATCHED: usize = 200;
+
+/// Adds the rest records and the separation monitors to `pt`.
+pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended {
+    let Ok(pos) = &prep.positions else {
+        return Extended {
+            net: pt,
+            monitors: Vec::new(),
+            candidates: Vec::new(),
+            unordered: Vec::new(),
+            too_many: None,
+        };
+    };
+    let drones: BTreeSet<u16> = pos.motions.iter().map(|t| t.drone).collect();
+    let unordered: Vec<u16> = drones
+        .iter()
+        .copied()
+        .filter(|&d| {
+            let mine: Vec<u32> = (0..pos.motions.len())
+                .filter(|&m| pos.motions[m].drone == d)
+                .map(|m| prep.running[m])
+                .collect();
+            mine.iter()
+                .enumerate()
+                .any(|(i, &a)| mine[i + 1..].iter().any(|&b| conc.get(a, b)))
+        })
+        .collect();
+    let candidates = candidates(pos, prep, conc, &unordered);
+    if candidates.len() > MAX_WATCHED {
+        return Extended {
+            net: pt,
+            monitors: Vec::new(),
+            candidates: Vec::new(),
+            unordered,
+            too_many: Some(candidates.len()),
+        };
+    }
+    // Only drones another one can come near while they rest need their
+    // rests recorded (each record multiplies the markings a little).
+    let resting: BTreeSet<u16> = candidates
+        .iter()
+        .filter_map(|c| match c.other {
+            Other::Resting(d, _) => Some(d),
+            Other::Moving(_) => None,
+        })
+        .collect();
+    let mut places = pt.places.clone();
+    let mut initial = pt.initial.clone();
+    let mut raw = pt.raw();
+    let mut steps = pt.steps.clone();
+    // One "last" place per rest of every ordered drone, also those that
+    // never fly (they rest at home throughout).
+    let mut last_place: BTreeMap<(u16, Last), u32> = BTreeMap::new();
+    for d in 0..prep.drones.len() as u16 {
+        if !resting.contains(&d) {
+            continue;
+        }
+        for last in pos.lasts(d) {
+            let i = places.len() as u32;
+            places.push(PlaceInfo {
+                id: format!("{}@{}", prep.names.drone(d), last_id(last)),
+                label: format!("{} rests at {}", prep.names.drone(d), last_id(last)),
+                span: None,
+                event: None,
+                is_final: false,
+                auxiliary: true,
+                synthetic: true,
+            });
+            initial.push(u32::from(last == Last::Home));
+            last_place.insert((d, last), i);
+        }
+    }
+    for (m, t) in pos.motions.iter().enumerate() {
+        if !resting.contains(&t.drone) {
+            continue;
+        }
+        let preds: Vec<u32> = pos.preds[m]
+            .iter()
+            .filter_map(|l| last_place.get(&(t.drone, *l)).copied())
+            .collect();
+        for (list, now) in [(&prep.ends[m], Last::End(m)), (&prep.cancels[m], Last::Cancel(m))] {
+            let Some(&to) = last_place.get(&(t.drone, now)) else {
+                continue;
+            };
+            for &r in list.iter() {
+                let base = raw[r as usize].clone();
+                for (k, &from) in preds.iter().enumerate() {
+                    let mut copy = base.clone();
+                    copy.pre.push((from, 1));
+                    copy.post.push((to, 1));
+                    if k == 0 {
+                        raw[r as usize] = copy;
+                    } else {
+                        raw.push(copy);
+                        steps.push(steps[r as usize].clone());
+                    }
+                }
+            }
+        }
+    }
+    let net = PtNet::new(places, steps, raw, initial, pt.final_place);
+    let monitors = candidates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| MonitorKind::Near {
+            a: prep.running[c.motion],
+            b: match c.other {
+                Other::Moving(m) => prep.running[m],
+                Other::Resting(d, l) => last_place[&(d, l)],
+            },
+            pair: i as u32,
+        })
+        .collect();
+    Extended {
+        net,
+        monitors,
+        candidates,
+        unordered,
+        too_many: None,
+    }
+}
+
+fn last_id(last: Last) -> String {
+    match last {
+        Last::Home => "home".into(),
+        Last::End(m) => format!("end{m}"),
+        Last::Cancel(m) => format!("stop{m}"),
+    }
+}
+
+/// Every leg and leg, or leg and rest, of two drones that come within the
+/// separation, closest first per pair.
+fn candidates(pos: &Positions, prep: &Prepared, conc: &Concurrency, unordered: &[u16]) -> Vec<Candidate> {
+    let sep = prep.space.airspace.separation;
+    let offset = |d: u16| prep.space.home(d);
+    let world = |d: u16, s: Shape| s.at(offset(d));
+    let legs: Vec<Vec<Shape>> = pos
+        .legs
+        .iter()
+        .enumerate()
+        .map(|(m, ls)| ls.iter().map(|l| world(pos.motions[m].drone, l.sweep)).collect())
+        .collect();
+    let leg_bounds: Vec<Option<(Vec3, Vec3)>> = legs.iter().map(|s| bounds(s, sep)).collect();
+    let mut rests: Vec<(u16, Last, Vec<Shape>)> = Vec::new();
+    for d in 0..prep.drones.len() as u16 {
+        if unordered.contains(&d) {
+            continue;
+        }
+        for last in pos.lasts(d) {
+            let shapes: Vec<Shape> = pos.rest(last).into_iter().map(|s| world(d, s)).collect();
+            rests.push((d, last, shapes));
+        }
+    }
+    let mut out = Vec::new();
+    let closest = |a: &[Shape], b: &[Shape]| -> Option<(Closest, Shape, Shape)> {
+        let mut best: Option<(Closest, Shape, Shape)> = None;
+        for &x in a {
+            for &y in b {
+                let c = x.closest(y);
+                if best.as_ref().is_none_or(|b| c.distance < b.0.distance) {
+                    best = Some((c, x, y));
+                }
+            }
+        }
+        best.filter(|b| b.0.distance < sep)
+    };
+    for (m, a) in pos.motions.iter().enumerate() {
+        let Some(ba) = leg_bounds[m] else { continue };
+        for (n, b) in pos.motions.iter().enumerate().skip(m + 1) {
+            if a.drone == b.drone || !conc.get(prep.running[m], prep.running[n]) {
+                continue;
+            }
+            if !leg_bounds[n].is_some_and(|bb| overlap(ba, bb)) {
+                continue;
+            }
+            if let Some((c, x, y)) = closest(&legs[m], &legs[n]) {
+                out.push(Candidate {
+                    motion: m,
+                    other: Other::Moving(n),
+                    closest: c,
+                    shapes: (x, y),
+                });
+            }
+        }
+        for (d, last, shapes) in &rests {
+            if *d == a.drone || !bounds(shapes, 0.0).is_some_and(|bb| overlap(ba, bb)) {
+                continue;
+            }
+            if let Some((c, x, y)) = closest(&legs[m], shapes) {
+                out.push(Candidate {
+                    motion: m,
+                    other: Other::Resting(*d, *last),
+                    closest: c,
+                    shapes: (x, y),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The bounding box of shapes, grown by `margin`.
+fn bounds(shapes: &[Shape], margin: f64) -> Option<(Vec3, Vec3)> {
+    let mut it = shapes.iter().flat_map(|s| {
+        let (a, b) = s.ends();
+        [a, b]
+    });
+    let first = it.next()?;
+    let (mut lo, mut hi) = (first, first);
+    for p in it {
+        lo = Vec3::new(lo.x.min(p.x), lo.y.min(p.y), lo.z.min(p.z));
+        hi = Vec3::new(hi.x.max(p.x), hi.y.max(p.y), hi.z.max(p.z));
+    }
+    let g = Vec3::new(margin, margin, margin);
+    Some((lo - g, hi + g))
+}
+
+fn overlap(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
+    a.0.x <= b.1.x && b.0.x <= a.1.x && a.0.y <= b.1.y && b.0.y <= a.1.y && a.0.z <= b.1.z && b.0.z <= a.1.z
+}
+
+/// The finding for a candidate the exploration reached, with its trace.
+pub(crate) fn near_findings(
+    prep: &Prepared,
+    ext: &Extended,
+    hits: &[(u32, usize)],
+    trace: &dyn Fn(u32) -> crate::report::Trace,
+) -> Vec<Finding> {
+    let Ok(pos) = &prep.positions else {
+        return Vec::new();
+    };
+    let names = &prep.names;
+    let sep = prep.space.airspace.separation;
+    let mut seen = BTreeSet::new();
+    // One finding per two drones: the legs both under way first, then the
+    // closest; the other places they can meet are listed in its notes.
+    let mut by_pair: BTreeMap<(u16, u16), Vec<(bool, Finding, String)>> = BTreeMap::new();
+    for &(state, i) in hits {
+        let c = &ext.candidates[i];
+        let a = &pos.motions[c.motion];
+        let (other_drone, other_text, other_span) = match c.other {
+            Other::Moving(n) => {
+                let b = &pos.motions[n];
+                (b.drone, format!("{} under way", names.action(&b.action)), Some(b.span))
+            }
+            Other::Resting(d, Last::Home) => (d, format!("{} at home", names.drone(d)), None),
+            Other::Resting(d, Last::End(n)) => (
+                d,
+                format!("{} resting where {} ended", names.drone(d), names.action(&pos.motions[n].action)),
+                Some(pos.motions[n].span),
+            ),
+            Other::Resting(d, Last::Cancel(n)) => (
+                d,
+                format!("{} stopped somewhere on {}", names.drone(d), names.action(&pos.motions[n].action)),
+                Some(pos.motions[n].span),
+            ),
+        };
+        let key = (a.span.start, a.span.end, other_span.map(|s| (s.start, s.end)), other_drone);
+        if !seen.insert(key) {
+            continue;
+        }
+        let p = c.closest.first;
+        let q = c.closest.second;
+        let mut labels = vec![Label {
+            span: a.span,
+            text: format!("{} flies this leg", names.drone(a.drone)),
+        }];
+        if let Some(s) = other_span {
+            labels.push(Label {
+                span: s,
+                text: match c.other {
+                    Other::Moving(_) => format!("while {} flies this one", names.drone(other_drone)),
+                    _ => format!("while {} rests where this leg ends", names.drone(other_drone)),
+                },
+            });
+        }
+        let leg = |d: u16, s: Shape, span| {
+            let (from, to) = s.ends();
+            GeoLeg {
+                drone: names.drone(d),
+                from,
+                to,
+                boxed: matches!(s, Shape::Box(..)),
+                span,
+            }
+        };
+        let both_moving = matches!(c.other, Other::Moving(_));
+        let summary = format!(
+            "{} ({}) with {}{}",
+            names.action(&a.action),
+            names.line(a.span),
+            other_text,
+            other_span.map_or(String::new(), |s| format!(" ({})", names.line(s)))
+        );
+        let pair = (a.drone.min(other_drone), a.drone.max(other_drone));
+        by_pair.entry(pair).or_default().push((both_moving, Finding {
+            kind: FindingKind::TooClose,
+            message: format!(
+                "{} can come within {:.2} m of {} (separation {} m)",
+                names.action(&a.action),
+                c.closest.distance,
+                other_text,
+                sep
+            ),
+            labels,
+            notes: vec![
+                format!(
+                    "closest approach: ({:.2}, {:.2}, {:.2}) and ({:.2}, {:.2}, {:.2}), fleet frame (metres north, east, up)",
+                    p.x, p.y, p.z, q.x, q.y, q.z
+                ),
+                "order the two with Signal/Await, or fly them at different heights".into(),
+            ],
+            trace: Some(trace(state)),
+            geometry: Some(Geometry {
+                legs: vec![
+                    leg(a.drone, c.shapes.0, Some(a.span)),
+                    leg(other_drone, c.shapes.1, other_span),
+                ],
+                closest: Some((p, q)),
+                distance: Some(c.closest.distance),
+            }),
+        }, summary));
+    }
+    let mut out = Vec::new();
+    for (_, mut list) in by_pair {
+        list.sort_by(|a, b| {
+            b.0.cmp(&a.0).then(
+                distance(&a.1)
+                    .total_cmp(&distance(&b.1))
+                    .then(trace_len(&a.1).cmp(&trace_len(&b.1))),
+            )
+        });
+        let mut rest = list.split_off(1);
+        let Some((_, mut f, _)) = list.pop() else {
+            continue;
+        };
+        if !rest.is_empty() {
+            let n = rest.len();
+            rest.truncate(8);
+            let lines: Vec<String> = rest.into_iter().map(|(_, _, s)| s).collect();
+            f.notes.push(format!(
+                "the same two drones can also meet {n} more way(s): {}{}",
+                lines.join("; "),
+                if n > 8 { "; ..." } else { "" }
+            ));
+        }
+        out.push(f);
+    }
+    out
+}
+
+fn distance(f: &Finding) -> f64 {
+    f.geometry
+        .as_ref()
+        .and_then(|g| g.distance)
+        .unwrap_or(f64::MAX)
+}
+
+fn trace_len(f: &Finding) -> usize {
+    f.trace.as_ref().map_or(0, |t| t.steps.len())
+}
+
+/// Homes closer than the separation: a finding before anything moves.
+pub(crate) fn homes_findings(prep: &Prepared) -> Vec<Finding> {
+    let names = &prep.names;
+    let sep = prep.space.airspace.separation;
+    let mut out = Vec::new();
+    let n = prep.drones.len() as u16;
+    for a in 0..n {
+        for b in a + 1..n {
+            let (p, q) = (prep.space.home(a), prep.space.home(b));
+            let d = p.distance(q);
+            if d < sep {
+                out.push(Finding {
+                    kind: FindingKind::TooClose,
+                    message: format!(
+                        "{} and {} start {d:.2} m apart, closer than the separation ({sep} m)",
+                        names.drone(a),
+                        names.drone(b)
+                    ),
+                    labels: Vec::new(),
+                    notes: vec!["move their homes apart in the fleet file".into()],
+                    trace: None,
+                    geometry: Some(Geometry {
+                        legs: Vec::new(),
+                        closest: Some((p, q)),
+                        distance: Some(d),
+                    }),
+                });
+            }
+        }
+    }
+    out
+}
