@@ -312,3 +312,33 @@ fn the_fleet_digest_holds_the_airspace_and_the_geojson_fence_not_its_path() {
     let (_c, fleet) = with_geojson(&moved);
     assert_ne!(load(&fleet).unwrap().digest, first);
 }
+
+#[test]
+fn the_survey_examples_airspace_is_read_and_holds_the_survey() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mission = std::fs::read_to_string(root.join("examples/survey.go")).unwrap();
+    let source = eamos_lang::SourceFile::new("survey.go".to_string(), mission);
+    let profiles = eamos_profile::builtin();
+    let compiled = eamos_lang::compile(&source, &profiles).expect("the survey checks");
+    let net = eamos_petri::compile(&compiled.mission, &profiles);
+    let fleet = Fleet::load(&root.join("examples/airspace.toml"), &net.name, &net.drones)
+        .expect("the example fleet file is read");
+    let homes = fleet.homes(&net.drones);
+    let at = |who: &str| homes[net.drones.iter().position(|d| d == who).unwrap()];
+    let (scout, camera) = (at("Scout"), at("Camera"));
+    assert_eq!(scout, Vec3::ZERO);
+    assert!(camera.distance(Vec3::new(0.0, 3.0, 0.0)) < 0.01, "{camera}");
+    // The survey's legs, as examples/survey.go flies them: up, 10 m north,
+    // down.
+    let space = fleet.airspace();
+    for (home, height) in [(scout, 5.0), (camera, 3.0)] {
+        let up = home + Vec3::new(0.0, 0.0, height);
+        let there = up + Vec3::new(10.0, 0.0, 0.0);
+        let down = there - Vec3::new(0.0, 0.0, height);
+        for (a, b) in [(home, up), (up, there), (there, down)] {
+            assert_eq!(space.breach(a, b), None, "{a} -> {b}");
+        }
+    }
+    assert!(space.fence.is_some() && space.ceiling == Some(30.0));
+    assert_eq!(space.separation, 2.0);
+}
