@@ -52,9 +52,27 @@ fn write_canonical(v: &Value, out: &mut String) {
 /// quoting style do not count; every value does. Text that is not TOML is
 /// hashed as it is (such a file never gets as far as a mission).
 pub fn fleet_digest(text: &str) -> String {
+    fleet_digest_with(text, None)
+}
+
+/// [`fleet_digest`] of a fleet whose fence is a GeoJSON file: the
+/// document (`geojson`, as read) stands in for its path, so that the
+/// identity changes when the fence is redrawn and not when the file moves.
+/// The document, not the fence computed from it, because the ground
+/// station and every agent must agree on the digest to the bit, and the
+/// conversion to the local frame goes through trigonometry that need not
+/// round alike on every machine.
+pub(crate) fn fleet_digest_with(text: &str, geojson: Option<&Value>) -> String {
     let canonical = match toml::from_str::<toml::Table>(text) {
         Ok(table) => match serde_json::to_value(&table) {
-            Ok(v) => canonical_json(&v),
+            Ok(mut v) => {
+                if let Some(doc) = geojson {
+                    if let Some(path) = v.pointer_mut("/airspace/fence_geojson") {
+                        *path = doc.clone();
+                    }
+                }
+                canonical_json(&v)
+            }
             Err(_) => text.to_string(),
         },
         Err(_) => text.to_string(),

@@ -1,8 +1,15 @@
 //! The fleet file: which adapter flies which drone of a mission, where each
-//! drone's home is, and how the peers (drones' agents and the ground
-//! station) reach each other over zenoh.
+//! drone's home is, where the fleet may fly, and how the peers (drones'
+//! agents and the ground station) reach each other over zenoh.
 //!
 //! ```toml
+//! origin = { lat = 46.6139, lon = 14.2650 }  # the fleet frame's 0 on the earth (optional)
+//!
+//! [airspace]                       # where the fleet may fly (optional)
+//! fence = [[-5.0, -5.0], [50.0, -5.0], [50.0, 50.0], [-5.0, 50.0]]  # [x north, y east], metres
+//! ceiling = 120.0                  # metres above home
+//! separation = 2.0                 # least distance between two drones, metres
+//!
 //! [zenoh]
 //! scouting = false                 # multicast scouting (off by default)
 //!
@@ -28,6 +35,9 @@
 //! home = { x = 0.0, y = 0.0, z = 0.0 }
 //! on_lost = "home"                 # this drone's own policy
 //!
+//! [drones.D2]
+//! home = { lat = 46.61395, lon = 14.2650, alt = 0.0 }  # 5.6 m north of `origin`
+//!
 //! [drones.D3]
 //! home = { x = 0.0, y = 4.0, z = 0.0 }
 //! script = { legs = [{ leg = "go_to", x = -15.0, y = -10.0, z = 5.0, speed = 5.0 }] }
@@ -40,6 +50,11 @@
 //! [drones.D4.mavlink]                 # adapter settings, all optional
 //! ready_timeout = 180
 //! ```
+//!
+//! The origin and the airspace (a fence may also be a GeoJSON file) are
+//! read into the fleet frame once, with every home, when the file is read:
+//! see `file/airspace.rs`. Without an `[airspace]` table the fleet flies in
+//! [`eamos_geo::Airspace::default`].
 //!
 //! A drone's `connect` is its MAVLink connection (the older spelling
 //! `connection` is accepted too); its zenoh endpoints, like the ground
@@ -57,16 +72,20 @@ use std::path::Path;
 
 use serde::Deserialize;
 
+use eamos_geo::{Airspace, Home, LocalFrame, Wgs84};
 use eamos_mid::mavlink::{ConnectAddress, MavlinkSettings};
 use eamos_mid::sim::kinematics::MultirotorConfig;
 use eamos_mid::sim::script::Script;
 use eamos_mid::sim::{SimConfig, SimDroneSpec};
 use eamos_mid::{Failsafe, Vec3};
 
-use crate::canonical::fleet_digest;
+use crate::canonical::fleet_digest_with;
 use crate::policy::{Grace, Liveness, OnLost};
 
+mod airspace;
+mod geojson;
 mod tls;
+use airspace::{AirspaceTable, Origin};
 pub use tls::{FleetTls, PeerTls};
 
 #[derive(Debug, Clone, Default, PartialEq, Deserialize)]
@@ -96,6 +115,16 @@ pub struct Fleet {
     /// mission is aborted: the fleet's defaults (see [`crate::policy`]).
     #[serde(default)]
     pub failsafe: FailsafeSettings,
+    /// The fleet frame's 0 on the earth, as written (see [`Fleet::origin`]).
+    #[serde(default, rename = "origin")]
+    origin_table: Option<toml::Spanned<Origin>>,
+    /// `[airspace]` as written (see [`Fleet::airspace`]).
+    #[serde(default, rename = "airspace")]
+    airspace_table: Option<AirspaceTable>,
+    #[serde(skip)]
+    origin: Option<Wgs84>,
+    #[serde(skip)]
+    airspace: Airspace,
 }
 
 /// The fleet-wide liveness and abort policy; each drone may override it
@@ -164,9 +193,14 @@ pub enum AdapterKind {
 pub struct DroneEntry {
     #[serde(default)]
     pub adapter: AdapterKind,
-    /// Home in the fleet frame (metres north, east, up of a common origin).
+    /// Home as written: in the fleet frame (metres north, east, up of the
+    /// fleet's origin) or in WGS84 (placed through the fleet's `origin`);
+    /// [`Fleet::home`] is the point of the frame.
     #[serde(default)]
-    pub home: Option<Vec3>,
+    pub home: Option<Home>,
+    /// The home in the fleet frame, placed when the file is read.
+    #[serde(skip)]
+    local_home: Option<Vec3>,
     /// The simulated airframe (sim only).
     #[serde(default)]
     pub vehicle: Option<MultirotorConfig>,
@@ -249,6 +283,10 @@ pub enum FleetError {
         drone: String,
         problem: String,
     },
+    /// In the fleet's `origin` or `[airspace]`; `at` is `file:line:column`
+    /// of the value at fault.
+    #[error("{at}: {problem}")]
+    Airspace { at: String, problem: String },
 }
 
 impl Fleet {
@@ -257,8 +295,9 @@ impl Fleet {
     /// directory here, once: nothing downstream resolves a path again.
     pub fn load(path: &Path, mission: &str, drones: &[String]) -> Result<Fleet, FleetError> {
         let text = read(path)?;
-        let mut fleet = Fleet::parse(&text, &path.display().to_string(), mission, drones)?;
-        fleet.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut fleet = Fleet::parse_in(&text, &path.display().to_string(), base, mission, drones)?;
+        fleet.resolve_paths(base);
         Ok(fleet)
     }
 
@@ -268,19 +307,25 @@ impl Fleet {
     /// [`Fleet::load`] does.
     pub fn load_unbound(path: &Path) -> Result<Fleet, FleetError> {
         let text = read(path)?;
-        let mut fleet = Fleet::parse_unbound(&text, &path.display().to_string())?;
-        fleet.resolve_paths(path.parent().unwrap_or(Path::new(".")));
+        let base = path.parent().unwrap_or(Path::new("."));
+        let mut fleet = Fleet::parse_unbound_in(&text, &path.display().to_string(), base)?;
+        fleet.resolve_paths(base);
         Ok(fleet)
     }
 
-    /// Parses fleet text against the drones it names itself.
+    /// Parses fleet text against the drones it names itself (a GeoJSON
+    /// fence relative to the working directory).
     pub fn parse_unbound(text: &str, name: &str) -> Result<Fleet, FleetError> {
+        Fleet::parse_unbound_in(text, name, Path::new(""))
+    }
+
+    fn parse_unbound_in(text: &str, name: &str, base: &Path) -> Result<Fleet, FleetError> {
         let named: Vec<String> = toml::from_str::<toml::Table>(text)
             .ok()
             .and_then(|t| t.get("drones").and_then(|d| d.as_table()).cloned())
             .map(|d| d.keys().cloned().collect())
             .unwrap_or_default();
-        Fleet::parse(text, name, "the fleet", &named)
+        Fleet::parse_in(text, name, base, "the fleet", &named)
     }
 
     /// Checks a fleet read before its mission was known
@@ -311,10 +356,22 @@ impl Fleet {
         }
     }
 
-    /// Parses fleet text; `name` is what errors call the file.
+    /// Parses fleet text; `name` is what errors call the file. A GeoJSON
+    /// fence it names is read relative to the working directory.
     pub fn parse(
         text: &str,
         name: &str,
+        mission: &str,
+        drones: &[String],
+    ) -> Result<Fleet, FleetError> {
+        Fleet::parse_in(text, name, Path::new(""), mission, drones)
+    }
+
+    /// [`Fleet::parse`], a GeoJSON fence read relative to `base`.
+    fn parse_in(
+        text: &str,
+        name: &str,
+        base: &Path,
         mission: &str,
         drones: &[String],
     ) -> Result<Fleet, FleetError> {
@@ -322,7 +379,19 @@ impl Fleet {
             path: name.to_string(),
             error: e.to_string().trim_end().to_string(),
         })?;
-        for (drone, entry) in &fleet.drones {
+        let space = airspace::resolve(
+            fleet.origin_table.as_ref(),
+            fleet.airspace_table.as_ref(),
+            base,
+        )
+        .map_err(|p| FleetError::Airspace {
+            at: location(text, name, p.span.start),
+            problem: p.what,
+        })?;
+        fleet.origin = space.origin;
+        fleet.airspace = space.airspace;
+        let frame = fleet.origin.map(LocalFrame::new);
+        for (drone, entry) in &mut fleet.drones {
             if !drones.contains(drone) {
                 return Err(unknown_drone(name, mission, drones, drone));
             }
@@ -353,9 +422,10 @@ impl Fleet {
                 }
             }
             if let Some(h) = entry.home {
-                if !h.is_finite() {
-                    return Err(problem("the home is not a finite point"));
-                }
+                let home = h
+                    .resolve(frame.as_ref())
+                    .map_err(|e| problem(&e.to_string()))?;
+                entry.local_home = Some(home);
             }
             if let Some(s) = &entry.script {
                 s.validate().map_err(|e| problem(&format!("script: {e}")))?;
@@ -368,7 +438,7 @@ impl Fleet {
             })?;
         }
         fleet.check_tls(name, drones)?;
-        fleet.digest = fleet_digest(text);
+        fleet.digest = fleet_digest_with(text, space.geojson.as_ref());
         Ok(fleet)
     }
 
@@ -392,12 +462,35 @@ impl Fleet {
         self.drones.get(drone).cloned().unwrap_or_default()
     }
 
-    /// The home of a drone: as the fleet file says, or the default.
+    /// The home of a drone in the fleet frame: as the fleet file says, or
+    /// the default for the `index`-th drone of the mission.
     pub fn home(&self, drone: &str, index: usize) -> Vec3 {
         self.drones
             .get(drone)
-            .and_then(|e| e.home)
+            .and_then(|e| e.local_home)
             .unwrap_or_else(|| default_home(index))
+    }
+
+    /// The homes of a mission's drones, in the mission's order (defaults
+    /// included), as [`Fleet::home`] places each.
+    pub fn homes(&self, drones: &[String]) -> Vec<Vec3> {
+        drones
+            .iter()
+            .enumerate()
+            .map(|(i, d)| self.home(d, i))
+            .collect()
+    }
+
+    /// The fleet frame's 0 on the earth, if the file gives it (`origin`).
+    pub fn origin(&self) -> Option<Wgs84> {
+        self.origin
+    }
+
+    /// Where the fleet may fly, in the fleet frame: the `[airspace]` table
+    /// as read, or no fence, no ceiling, the ground as the floor and the
+    /// default separation ([`eamos_geo::DEFAULT_SEPARATION`]).
+    pub fn airspace(&self) -> &Airspace {
+        &self.airspace
     }
 
     /// The simulated drone as the fleet file describes it.
@@ -436,13 +529,18 @@ fn drone_location(text: &str, name: &str, drone: &str) -> String {
         #[serde(default)]
         drones: BTreeMap<String, toml::Spanned<toml::Value>>,
     }
-    let Some(start) = toml::from_str::<Spans>(text)
+    match toml::from_str::<Spans>(text)
         .ok()
         .and_then(|s| s.drones.get(drone).map(|v| v.span().start))
-    else {
-        return name.to_string();
-    };
-    let before = &text[..start.min(text.len())];
+    {
+        Some(start) => location(text, name, start),
+        None => name.to_string(),
+    }
+}
+
+/// `file:line:column` of the byte `offset` of the file's text.
+fn location(text: &str, name: &str, offset: usize) -> String {
+    let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
     let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
     format!("{name}:{line}:{column}")

@@ -174,9 +174,19 @@ mod tests {
             MISSION,
             "[keys]\ngcs = \"gcs.pub\"\n[drones.D1]\nhome = { x = 1.0, y = 0.0, z = 0.0 }\n",
         );
+        let fenced = identity(
+            MISSION,
+            "[airspace]\nceiling = 120.0\n[drones.D1]\nhome = { x = 1.0, y = 0.0, z = 0.0 }\n",
+        );
+        let lowered = identity(
+            MISSION,
+            "[airspace]\nceiling = 100.0\n[drones.D1]\nhome = { x = 1.0, y = 0.0, z = 0.0 }\n",
+        );
         assert_ne!(base, moved);
         assert_ne!(base, keyed);
         assert_ne!(moved, keyed);
+        assert_ne!(base, fenced);
+        assert_ne!(fenced, lowered);
     }
 
     #[test]
