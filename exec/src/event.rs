@@ -74,7 +74,8 @@ pub enum Kind {
         seq: u64,
     },
     /// An action was started (`action` names it, `args` are its
-    /// arguments); a motion has its absolute target in the local frame.
+    /// arguments); a flight to a point has its absolute target, in metres
+    /// from the drone's home (as its journal records it).
     ActionStarted {
         action: String,
         args: Vec<f64>,
