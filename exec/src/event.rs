@@ -229,7 +229,8 @@ impl Sink for Discard {
 
 /// Hands every event to each of its sinks in turn, one event at a time:
 /// every sink sees the same events in the same order, even when several
-/// peers of one process emit at once.
+/// peers of one process emit at once. A sink of a tee must not emit into that
+/// tee (it holds the tee's lock while it is called).
 #[derive(Default)]
 pub struct Tee {
     sinks: Mutex<Vec<Arc<dyn Sink>>>,
