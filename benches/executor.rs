@@ -11,8 +11,8 @@ use async_trait::async_trait;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use tokio::sync::watch;
 
+use eamos_exec::event::Discard;
 use eamos_exec::executor::{Agent, Executor, ExecutorOptions};
-use eamos_exec::log::DroneLog;
 use eamos_exec::transport::inproc::InProcessHub;
 use eamos_exec::transport::reliable::{Bridges, RetransmitPolicy};
 use eamos_exec::transport::GCS;
@@ -107,7 +107,7 @@ async fn play(slices: &Slices, profiles: &ProfileTable) {
             delivered,
             link: endpoint.link,
             telemetry: endpoint.telemetry,
-            log: DroneLog::discard(&slice.drone),
+            events: Arc::new(Discard),
         };
         let options = ExecutorOptions {
             peers: peers.clone(),

@@ -4,8 +4,8 @@
 
 use std::sync::Arc;
 
+use eamos_exec::event::Discard;
 use eamos_exec::executor::{Agent, Executor, ExecutorOptions};
-use eamos_exec::log::DroneLog;
 use eamos_exec::transport::inproc::InProcessHub;
 use eamos_exec::transport::reliable::{Bridges, RetransmitPolicy};
 use eamos_exec::transport::zenoh::{self as zenoh_link, ZenohOptions};
@@ -194,7 +194,6 @@ pub async fn ready_agent(
     let peers = std::iter::once(GCS.to_string())
         .chain(slice.drones.iter().cloned())
         .collect();
-    let log = DroneLog::discard(&slice.drone);
     let agent = Agent {
         drone: Some(drone),
         clock: sim.clock(),
@@ -202,7 +201,7 @@ pub async fn ready_agent(
         delivered,
         link: endpoint.link,
         telemetry: endpoint.telemetry,
-        log,
+        events: Arc::new(Discard),
         slice,
     };
     let executor = Executor::new(

@@ -20,6 +20,10 @@
 //! mission has ended once every slice listed in `Slice::ends` has), and `abort`,
 //! sent by a drone whose action failed. Both are delivered exactly once like
 //! any token.
+//!
+//! What happens is said once, as an [`Event`] into the agent's sink (see
+//! [`crate::event`]): the logs, the terminal and any monitor read that one
+//! stream. The executor formats no line for a person.
 
 use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
@@ -34,10 +38,10 @@ use eamos_petri::net::{Colour, Guard, TransitionKind};
 use eamos_slicer::Slice;
 
 use crate::abort::{CommandOpener, CommandSealer};
+use crate::event::{Event, Kind, Sink};
 use crate::guard::World;
 use crate::journal::{self, AgentJournal, Record};
 use crate::liveness::Liveness;
-use crate::log::{DroneLog, MissionEvent};
 use crate::transport::reliable::{BridgeStats, Bridges, Delivered};
 use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
 
@@ -66,8 +70,6 @@ pub struct ExecutorOptions {
     pub peers: Vec<PeerId>,
     /// The mission text, to name lines in what the executor reports.
     pub source: Option<Arc<SourceFile>>,
-    /// Live progress for a terminal.
-    pub progress: Option<mpsc::UnboundedSender<Progress>>,
     /// Stops the executor from outside (Ctrl-C): the drone lands.
     pub stop: CancellationToken,
     /// What this drone does when a peer it waits on is lost, and when the
@@ -93,7 +95,6 @@ impl Default for ExecutorOptions {
             flush_timeout: Duration::from_secs(10),
             peers: Vec::new(),
             source: None,
-            progress: None,
             stop: CancellationToken::new(),
             liveness: Liveness::default(),
             abort_opener: None,
@@ -101,26 +102,6 @@ impl Default for ExecutorOptions {
             journal: None,
         }
     }
-}
-
-/// Something a person watching the run wants to see.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Progress {
-    pub drone: String,
-    pub time: f64,
-    pub what: ProgressKind,
-}
-
-#[derive(Debug, Clone, PartialEq)]
-pub enum ProgressKind {
-    ActionStarted(String),
-    ActionFinished(String),
-    Sent,
-    Received,
-    Waiting(String),
-    Ended(String),
-    /// A peer lost or back, a drone stuck, an abort: a line to show.
-    Alert(String),
 }
 
 /// How a run of one slice ended.
@@ -185,7 +166,9 @@ pub struct Agent {
     pub link: Arc<dyn Link>,
     /// Telemetry of the drones this slice's guards read.
     pub telemetry: mpsc::UnboundedReceiver<TelemetryFrame>,
-    pub log: DroneLog,
+    /// Where this executor says what happened, once per event (see
+    /// [`crate::event`]).
+    pub events: Arc<dyn Sink>,
 }
 
 struct Finished {
@@ -203,7 +186,7 @@ pub struct Executor {
     delivered: mpsc::UnboundedReceiver<Delivered>,
     link: Arc<dyn Link>,
     telemetry: mpsc::UnboundedReceiver<TelemetryFrame>,
-    log: DroneLog,
+    events: Arc<dyn Sink>,
     options: ExecutorOptions,
 
     /// Tokens per local place (1-safe: at most one, kept as a list so that
@@ -285,7 +268,7 @@ impl Executor {
             delivered: agent.delivered,
             link: agent.link,
             telemetry: agent.telemetry,
-            log: agent.log,
+            events: agent.events,
             options,
             marking,
             consumers,
@@ -368,7 +351,7 @@ impl Executor {
             });
             return;
         }
-        self.note(MissionEvent::Resumed {
+        self.emit(Kind::Resumed {
             records: r.records,
             interrupted: r.interrupted.len(),
             unacked: r.unacked.len(),
@@ -400,7 +383,7 @@ impl Executor {
             let seq = self.bridges.send(to, bridge, colour.clone());
             self.sent += 1;
             if let Ok(id) = bridge.parse() {
-                self.note(MissionEvent::BridgeSent {
+                self.emit(Kind::BridgeSent {
                     bridge: id,
                     to: to.clone(),
                     colour: colour.clone(),
@@ -432,14 +415,13 @@ impl Executor {
     /// the target journaled when it started (see [`journal::resume_action`]).
     fn resume_action(&mut self, i: &journal::Interrupted) {
         let key = (i.instance, i.colour.clone());
-        self.note(MissionEvent::ActionResumed {
+        self.emit(Kind::ActionResumed {
             action: i.call.name.clone(),
             args: i.call.args.clone(),
             instance: i.instance,
             colour: i.colour.clone(),
             target: i.target,
         });
-        self.progress(ProgressKind::ActionStarted(format!("{} (resumed)", i.call)));
         let token = CancellationToken::new();
         self.running.insert(key, token.clone());
         let done = self.finished_tx.clone();
@@ -513,25 +495,33 @@ impl Executor {
         self.clock.now()
     }
 
-    fn note(&self, event: MissionEvent) {
-        self.log.mission(self.now(), event);
+    /// Says what happened, once, into the executor's sink.
+    fn emit(&self, kind: Kind) {
+        self.events.event(&Event {
+            time: self.now(),
+            drone: self.me().to_string(),
+            kind,
+        });
     }
 
-    fn progress(&self, what: ProgressKind) {
-        if let Some(p) = &self.options.progress {
-            let _ = p.send(Progress {
-                drone: self.me().to_string(),
-                time: self.now(),
-                what,
-            });
-        }
+    /// Says which places hold a token now (after every change).
+    fn emit_marking(&self) {
+        let mut marked: Vec<String> = self
+            .marking
+            .iter()
+            .zip(&self.slice.places)
+            .filter(|(tokens, _)| !tokens.is_empty())
+            .map(|(_, p)| p.id.clone())
+            .collect();
+        marked.sort();
+        self.emit(Kind::Marking { marked });
     }
 
     /// Plays the slice until the mission ends, the time limit expires, an
     /// action fails or the executor is stopped.
     pub async fn run(mut self) -> Report {
         let started = self.now();
-        self.note(MissionEvent::Started {
+        self.emit(Kind::Started {
             mission: self.slice.mission.clone(),
             mission_id: self.slice.mission_id.clone(),
             places: self.slice.places.len(),
@@ -539,6 +529,7 @@ impl Executor {
             bridges_in: self.slice.bridges_in.len(),
             bridges_out: self.slice.bridges_out.len(),
         });
+        self.emit_marking();
         self.resume();
         let publisher = CancellationToken::new();
         let mut own: Option<watch::Receiver<Telemetry>> = None;
@@ -619,7 +610,7 @@ impl Executor {
                 _ = sleep_until(&clock, grace_ends) => {}
                 _ = sleep_until(&clock, deadline) => {
                     let waiting = self.waiting();
-                    self.note(MissionEvent::TimeLimit { waiting: waiting.clone() });
+                    self.emit(Kind::TimeLimit { waiting: waiting.clone() });
                     self.ended = Some(Outcome::TimeLimit { waiting });
                 }
                 _ = stop.cancelled() => self.ended = Some(Outcome::Stopped),
@@ -652,10 +643,9 @@ impl Executor {
             }
             Outcome::Aborted { reason } => format!("aborted: {reason}"),
         };
-        self.note(MissionEvent::Stopped {
+        self.emit(Kind::Stopped {
             reason: reason.clone(),
         });
-        self.progress(ProgressKind::Ended(reason));
         Report {
             drone: self.me().to_string(),
             outcome,
@@ -750,12 +740,11 @@ impl Executor {
         if !value && self.waiting_logged.insert((t, colour.clone())) {
             let st = &self.slice.transitions[t as usize];
             let condition = self.guard_text(g);
-            self.note(MissionEvent::ConditionWaiting {
+            self.emit(Kind::ConditionWaiting {
                 transition: st.transition.id.clone(),
                 condition: condition.clone(),
                 reason,
             });
-            self.progress(ProgressKind::Waiting(condition));
         }
         value
     }
@@ -838,24 +827,24 @@ impl Executor {
         if self.first_firing.is_none() {
             self.first_firing = Some(self.now());
         }
-        self.note(MissionEvent::Fired {
+        self.emit(Kind::Fired {
             transition: st.transition.id.clone(),
             label: st.transition.label.clone(),
             kind: kind_name(&st.transition.kind).to_string(),
             colour: colour.clone(),
         });
+        self.emit_marking();
         let outs: Vec<_> = self.slice.sends(t).cloned().collect();
         for b in outs {
             let c = b.colour.apply(&colour);
             let seq = self.bridges.send(&b.to, &b.id.to_string(), c.clone());
             self.sent += 1;
-            self.note(MissionEvent::BridgeSent {
+            self.emit(Kind::BridgeSent {
                 bridge: b.id,
                 to: b.to.clone(),
                 colour: c,
                 seq,
             });
-            self.progress(ProgressKind::Sent);
         }
         match &st.transition.kind {
             TransitionKind::ActionStart(a) => self.start_action(a, colour),
@@ -873,7 +862,7 @@ impl Executor {
                 } else if let Some(token) = token {
                     token.cancel();
                     self.actions_cancelled += 1;
-                    self.note(MissionEvent::ActionCancelled {
+                    self.emit(Kind::ActionCancelled {
                         action: a.name.clone(),
                         instance: a.instance,
                         colour,
@@ -906,7 +895,7 @@ impl Executor {
             .iter()
             .all(|o| self.ends_reached.contains(o));
         if all && self.ended.is_none() {
-            self.note(MissionEvent::MissionEnded { by });
+            self.emit(Kind::MissionEnded { by });
             self.ended = Some(Outcome::Completed);
         }
     }
@@ -918,23 +907,24 @@ impl Executor {
         let call = ActionCall::new(a.name.clone(), a.args.clone());
         // Journaled before the drone is asked, with the absolute target of
         // a motion: a crash from here on resumes it, never repeats it.
+        let target = self.drone.as_ref().and_then(|d| d.motion_target(&call));
         let started = Record::Started(journal::Started {
             instance: a.instance,
             colour: colour.clone(),
             call: call.clone(),
-            target: self.drone.as_ref().and_then(|d| d.motion_target(&call)),
+            target,
             time: self.now(),
         });
         if !self.journal(started, true) {
             return;
         }
-        self.note(MissionEvent::ActionStarted {
+        self.emit(Kind::ActionStarted {
             action: a.name.clone(),
             args: a.args.clone(),
             instance: a.instance,
             colour: colour.clone(),
+            target,
         });
-        self.progress(ProgressKind::ActionStarted(call.to_string()));
         let token = CancellationToken::new();
         self.running.insert(key, token.clone());
         let done = self.finished_tx.clone();
@@ -976,14 +966,13 @@ impl Executor {
             Ok(()) => ("ok".to_string(), None),
             Err(e) => (e.kind().to_string(), Some(e.to_string())),
         };
-        self.note(MissionEvent::ActionFinished {
+        self.emit(Kind::ActionFinished {
             action: f.action.clone(),
             instance: f.instance,
             colour: f.colour.clone(),
             outcome,
             error: error.clone(),
         });
-        self.progress(ProgressKind::ActionFinished(f.action.clone()));
         match f.result {
             Ok(()) => {
                 if !cancelled_by_us {
@@ -1030,13 +1019,12 @@ impl Executor {
         };
         self.alive.delivered.insert(id);
         self.received += 1;
-        self.note(MissionEvent::BridgeReceived {
+        self.emit(Kind::BridgeReceived {
             bridge: id,
             from: d.from,
             colour: d.colour.clone(),
             seq: d.seq,
         });
-        self.progress(ProgressKind::Received);
         let tokens = &mut self.marking[inbox as usize];
         if !tokens.is_empty() {
             tracing::error!(
@@ -1046,6 +1034,7 @@ impl Executor {
             );
         }
         tokens.push(d.colour);
+        self.emit_marking();
     }
 
     fn on_telemetry(&mut self, t: TelemetryFrame) {

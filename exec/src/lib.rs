@@ -7,10 +7,13 @@
 //! - [`liveness`]: who is up, who is lost, and what a drone waiting on a
 //!   lost peer does (its fleet's policy).
 //! - [`abort`]: `eamos abort` and the abort command every drone obeys.
+//! - [`event`]: the one stream of mission events and the sinks that read
+//!   it (logs, terminal, plot, monitor).
 //! - [`executor`]: the token game of one slice, played with a real adapter.
 //! - [`guard`]: conditions evaluated over drones' telemetry.
 //! - [`journal`]: what an agent did, on its own disk, to resume after a crash.
-//! - [`log`]: the per-drone mission, uniform and adapter logs.
+//! - [`log`]: the per-drone mission, uniform and adapter logs (the mission
+//!   log is a sink of events).
 //! - [`runner`]: a whole fleet in one process, or one peer over zenoh.
 //! - [`svg`]: the plot of every drone's path.
 //!
@@ -19,6 +22,7 @@
 //! drone (that is the roll-out's, `eamos-rollout`, which sits above it).
 
 pub mod abort;
+pub mod event;
 pub mod executor;
 pub mod guard;
 pub mod journal;
@@ -29,4 +33,5 @@ pub mod runner;
 pub mod svg;
 pub mod transport;
 
-pub use executor::{Agent, Executor, ExecutorOptions, Outcome, Progress, ProgressKind, Report};
+pub use event::{Event, Kind, Sink};
+pub use executor::{Agent, Executor, ExecutorOptions, Outcome, Report};

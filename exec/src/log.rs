@@ -1,9 +1,10 @@
 //! The three per-drone logs of the paper (section VII-C), as JSON lines in
 //! one directory, every record stamped with mission time:
 //!
-//! - `<drone>.mission.jsonl`: the mission log, written by the executor:
-//!   firings, actions started and finished, bridge messages sent and
-//!   received, conditions waited on, how the run ended;
+//! - `<drone>.mission.jsonl`: the mission log, the sink [`MissionLog`] of
+//!   the peer's [`crate::event`]s: firings, markings, actions started and
+//!   finished, bridge messages sent and received, conditions waited on,
+//!   how the run ended; one event a line, with the log's version `"v"`;
 //! - `<drone>.uniform.jsonl`: every call through the uniform API (from the
 //!   middle layer's [`eamos_mid::Uniform`]);
 //! - `<drone>.adapter.jsonl`: what the adapter did and where the drone was.
@@ -22,140 +23,37 @@ use std::thread::JoinHandle;
 use serde::{Deserialize, Serialize};
 
 use eamos_mid::log::{LogRecord, LogSink};
-use eamos_petri::net::Colour;
 
-/// One line of a mission log.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct MissionRecord {
-    /// Mission time, seconds.
-    pub time: f64,
-    pub drone: String,
+use crate::event::{Event, Kind, Sink};
+
+/// The version of the mission log's lines (`"v"` in each): a reader
+/// refuses a later one rather than misread it. Lines written before the
+/// field existed read as version 1.
+pub const MISSION_LOG_VERSION: u32 = 1;
+
+/// One line of a mission log as written: the version, then the event.
+#[derive(Serialize)]
+struct LineOut<'a> {
+    v: u32,
     #[serde(flatten)]
-    pub event: MissionEvent,
+    event: &'a Event,
 }
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "event", rename_all = "snake_case")]
-pub enum MissionEvent {
-    /// The executor of this slice is up.
-    Started {
-        mission: String,
-        mission_id: String,
-        places: usize,
-        transitions: usize,
-        bridges_in: usize,
-        bridges_out: usize,
-    },
-    /// A transition fired with the binding colour.
-    Fired {
-        transition: String,
-        label: String,
-        kind: String,
-        colour: Colour,
-    },
-    BridgeSent {
-        bridge: u32,
-        to: String,
-        colour: Colour,
-        seq: u64,
-    },
-    BridgeReceived {
-        bridge: u32,
-        from: String,
-        colour: Colour,
-        seq: u64,
-    },
-    ActionStarted {
-        action: String,
-        args: Vec<f64>,
-        instance: u32,
-        colour: Colour,
-    },
-    /// The adapter reported the end of an action (`ok`, or the error kind).
-    ActionFinished {
-        action: String,
-        instance: u32,
-        colour: Colour,
-        outcome: String,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        error: Option<String>,
-    },
-    /// The agent restarted from its journal: how many records it replayed,
-    /// how many actions were running at the crash, how many messages it
-    /// sends again.
-    Resumed {
-        records: usize,
-        interrupted: usize,
-        unacked: usize,
-    },
-    /// An action that was running when the agent crashed goes on (a motion
-    /// towards the target journaled when it started). Its end is logged as
-    /// `action_finished`; it is not a second start.
-    ActionResumed {
-        action: String,
-        args: Vec<f64>,
-        instance: u32,
-        colour: Colour,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        target: Option<eamos_mid::Vec3>,
-    },
-    /// An interrupted `Do` cancelled a running action.
-    ActionCancelled {
-        action: String,
-        instance: u32,
-        colour: Colour,
-    },
-    /// A transition has its tokens but its condition does not let it fire
-    /// (logged once per transition and colour, when the wait begins).
-    ConditionWaiting {
-        transition: String,
-        condition: String,
-        reason: String,
-    },
-    /// The final place is marked (here, or as told by the peer holding it).
-    MissionEnded { by: String },
-    /// The mission time limit expired; what was still waiting.
-    TimeLimit { waiting: Vec<String> },
-    /// The executor stopped.
-    Stopped { reason: String },
-    /// A peer seen up has gone (its liveliness token was deleted).
-    PeerLost { peer: String },
-    /// A lost peer is up again.
-    PeerBack { peer: String },
-    /// This drone waits on peers lost for the grace period and follows
-    /// its policy (`hold`, `land`, `home`, `abort`).
-    Stuck { lost: Vec<String>, policy: String },
-    /// A peer told this one (the ground station) that it is stuck on a
-    /// lost peer, and what it does about it.
-    PeerStuck {
-        /// The drone that is stuck (`drone` names the record's writer).
-        peer: String,
-        lost: String,
-        policy: String,
-    },
-    /// An abort was obeyed: every action is cancelled, the drone goes to
-    /// its failsafe, every other peer is told.
-    AbortReceived { from: String, reason: String },
-    /// An abort was refused (another mission, not signed by the ground
-    /// station, garbled); the flight goes on.
-    AbortRefused { from: String, reason: String },
-    /// The drone goes to its failsafe (once per run at most).
-    Failsafe {
-        failsafe: String,
-        reason: String,
-        airborne: bool,
-    },
-    /// How the failsafe ended (`ok`, or the error kind).
-    FailsafeFinished {
-        failsafe: String,
-        outcome: String,
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        error: Option<String>,
-    },
+/// One line of a mission log as read.
+#[derive(Deserialize)]
+struct LineIn {
+    #[serde(default = "first_version")]
+    v: u32,
+    #[serde(flatten)]
+    event: Event,
+}
+
+fn first_version() -> u32 {
+    1
 }
 
 enum Line {
-    Mission(String, MissionRecord),
+    Mission(Event),
     Mid(String, LogRecord),
     /// Close the files: handles may outlive the run (an adapter task that
     /// has not noticed the end yet), so the writer cannot wait for them.
@@ -200,7 +98,14 @@ impl LogWriter {
         &self.dir
     }
 
-    /// The logs of one drone (or of the ground station).
+    /// The mission logs of every peer, as a sink of their events.
+    pub fn missions(&self) -> MissionLog {
+        MissionLog {
+            tx: self.tx.clone(),
+        }
+    }
+
+    /// The uniform and adapter logs of one drone.
     pub fn drone(&self, drone: &str) -> DroneLog {
         DroneLog {
             drone: drone.to_string(),
@@ -241,17 +146,24 @@ impl DroneLog {
     pub fn drone(&self) -> &str {
         &self.drone
     }
+}
 
-    pub fn mission(&self, time: f64, event: MissionEvent) {
+/// Writes each event to its peer's mission log, `<drone>.mission.jsonl`.
+/// Telemetry samples are left out: the adapter log records where each
+/// drone was, at the adapter's own rate. Roll-out events belong to no
+/// mission and are left out too.
+#[derive(Clone)]
+pub struct MissionLog {
+    tx: Option<std_mpsc::Sender<Line>>,
+}
+
+impl Sink for MissionLog {
+    fn event(&self, e: &Event) {
+        if matches!(e.kind, Kind::Telemetry { .. }) || e.kind.is_rollout() {
+            return;
+        }
         if let Some(tx) = &self.tx {
-            let _ = tx.send(Line::Mission(
-                self.drone.clone(),
-                MissionRecord {
-                    time,
-                    drone: self.drone.clone(),
-                    event,
-                },
-            ));
+            let _ = tx.send(Line::Mission(e.clone()));
         }
     }
 }
@@ -284,9 +196,13 @@ fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>, append: bool) -> Vec<Str
             }
         };
         let (path, text) = match line {
-            Line::Mission(d, r) => (
-                root.join(format!("{d}.mission.jsonl")),
-                serde_json::to_string(&r).unwrap_or_default(),
+            Line::Mission(e) => (
+                root.join(format!("{}.mission.jsonl", e.drone)),
+                serde_json::to_string(&LineOut {
+                    v: MISSION_LOG_VERSION,
+                    event: &e,
+                })
+                .unwrap_or_default(),
             ),
             Line::Mid(d, r) => {
                 let kind = match r {
@@ -340,14 +256,22 @@ fn flush_all(files: &mut HashMap<PathBuf, Option<BufWriter<File>>>, errors: &mut
 }
 
 /// Reads a mission log back (for tests and for tools that check runs).
-pub fn read_mission_log(path: &Path) -> Result<Vec<MissionRecord>, String> {
+pub fn read_mission_log(path: &Path) -> Result<Vec<Event>, String> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
         .map(|(i, l)| {
-            serde_json::from_str(l).map_err(|e| format!("{}:{}: {e}", path.display(), i + 1))
+            let at = format!("{}:{}", path.display(), i + 1);
+            let line: LineIn = serde_json::from_str(l).map_err(|e| format!("{at}: {e}"))?;
+            if line.v > MISSION_LOG_VERSION {
+                return Err(format!(
+                    "{at}: a mission log of version {}, newer than this eamos reads ({MISSION_LOG_VERSION})",
+                    line.v
+                ));
+            }
+            Ok(line.event)
         })
         .collect()
 }
@@ -362,15 +286,16 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let w = LogWriter::create(dir.path()).unwrap();
         let d1 = w.drone("D1");
-        d1.mission(
-            1.0,
-            MissionEvent::BridgeSent {
+        w.missions().event(&Event {
+            time: 1.0,
+            drone: "D1".into(),
+            kind: Kind::BridgeSent {
                 bridge: 3,
                 to: "D2".into(),
                 colour: vec![0],
                 seq: 1,
             },
-        );
+        });
         d1.record(LogRecord::Adapter(AdapterRecord {
             time: 1.5,
             drone: "D1".into(),
@@ -382,10 +307,9 @@ mod tests {
         assert!(w.finish().is_empty());
         let log = read_mission_log(&dir.path().join("D1.mission.jsonl")).unwrap();
         assert_eq!(log.len(), 1);
-        assert!(matches!(
-            log[0].event,
-            MissionEvent::BridgeSent { bridge: 3, .. }
-        ));
+        assert!(matches!(log[0].kind, Kind::BridgeSent { bridge: 3, .. }));
+        let text = std::fs::read_to_string(dir.path().join("D1.mission.jsonl")).unwrap();
+        assert!(text.starts_with(r#"{"v":1,"time":1.0,"drone":"D1","event":"bridge_sent""#));
         let adapter = std::fs::read_to_string(dir.path().join("D1.adapter.jsonl")).unwrap();
         assert!(adapter.contains("\"event\":\"state\""));
         assert!(!dir.path().join("D1.uniform.jsonl").exists());
@@ -397,6 +321,51 @@ mod tests {
         let file = dir.path().join("plain-file");
         std::fs::write(&file, "x").unwrap();
         assert!(LogWriter::create(&file.join("sub")).is_err());
+    }
+
+    #[test]
+    fn a_line_without_a_version_reads_as_the_first_and_a_later_version_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("D1.mission.jsonl");
+        std::fs::write(
+            &p,
+            "{\"time\":0,\"drone\":\"D1\",\"event\":\"stopped\",\"reason\":\"x\"}\n",
+        )
+        .unwrap();
+        let log = read_mission_log(&p).unwrap();
+        assert_eq!(log[0].kind, Kind::Stopped { reason: "x".into() });
+        std::fs::write(
+            &p,
+            "{\"v\":2,\"time\":0,\"drone\":\"D1\",\"event\":\"stopped\",\"reason\":\"x\"}\n",
+        )
+        .unwrap();
+        let err = read_mission_log(&p).unwrap_err();
+        assert!(err.contains("version 2"), "{err}");
+    }
+
+    #[test]
+    fn telemetry_and_rollout_events_stay_out_of_the_mission_log() {
+        let dir = tempfile::tempdir().unwrap();
+        let w = LogWriter::create(dir.path()).unwrap();
+        let at = |kind| Event {
+            time: 0.0,
+            drone: "D1".into(),
+            kind,
+        };
+        w.missions().event(&at(Kind::Telemetry {
+            position: eamos_mid::Vec3::ZERO,
+            altitude: 0.0,
+            battery: 100.0,
+        }));
+        w.missions().event(&at(Kind::RolloutStarted {
+            identity: "m-1".into(),
+        }));
+        w.missions()
+            .event(&at(Kind::PeerBack { peer: "D2".into() }));
+        assert!(w.finish().is_empty());
+        let log = read_mission_log(&dir.path().join("D1.mission.jsonl")).unwrap();
+        assert_eq!(log.len(), 1);
+        assert_eq!(log[0].kind, Kind::PeerBack { peer: "D2".into() });
     }
 
     #[test]

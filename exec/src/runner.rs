@@ -8,7 +8,7 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use tokio::sync::mpsc;
@@ -21,10 +21,12 @@ use eamos_profile::ProfileTable;
 use eamos_slicer::{Slice, Slices};
 
 use crate::abort::{CommandOpener, CommandSealer};
-use crate::executor::{Agent, Executor, ExecutorOptions, Progress, Report};
+use crate::event::{Event, Kind, Sink, Tee};
+use crate::executor::{Agent, Executor, ExecutorOptions, Report};
 use crate::journal::{self, AgentJournal, JournalError};
 use crate::liveness::Liveness;
 use crate::log::{DroneLog, LogWriter};
+use crate::svg::Paths;
 use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
@@ -53,7 +55,9 @@ pub struct RunOptions {
     pub faults: Option<Faults>,
     pub retransmit: RetransmitPolicy,
     pub source: Option<Arc<SourceFile>>,
-    pub progress: Option<mpsc::UnboundedSender<Progress>>,
+    /// Who reads the run's events besides its mission logs and the plot's
+    /// paths: a terminal display, a test, a monitor.
+    pub events: Option<Arc<dyn Sink>>,
     pub stop: CancellationToken,
     /// How long the ground station waits for the other peers (wall time).
     pub startup_timeout: Duration,
@@ -86,7 +90,7 @@ impl Default for RunOptions {
             faults: None,
             retransmit: RetransmitPolicy::default(),
             source: None,
-            progress: None,
+            events: None,
             stop: CancellationToken::new(),
             startup_timeout: Duration::from_secs(60),
             linger: Duration::from_secs(2),
@@ -398,26 +402,34 @@ fn partitioned(mut e: Endpoint, options: &RunOptions) -> Endpoint {
     e
 }
 
-/// Records each drone's path: a point whenever it has moved 5 cm.
-fn record_paths(
+/// Samples each drone's telemetry into the run's events: whenever it
+/// has moved 5 cm (the plot's paths are made of these).
+fn sample_telemetry(
     adapters: &BTreeMap<String, Arc<dyn Adapter>>,
+    clock: &MissionClock,
+    events: Arc<dyn Sink>,
     stop: CancellationToken,
-) -> Arc<Mutex<BTreeMap<String, Vec<Vec3>>>> {
-    let paths: Arc<Mutex<BTreeMap<String, Vec<Vec3>>>> = Arc::default();
+) {
     for (name, a) in adapters {
         let mut rx = a.telemetry();
-        let paths = paths.clone();
-        let name = name.clone();
-        let stop = stop.clone();
+        let events = events.clone();
+        let (name, clock, stop) = (name.clone(), clock.clone(), stop.clone());
         tokio::spawn(async move {
+            let mut last: Option<Vec3> = None;
             loop {
-                let p = rx.borrow_and_update().fleet_position();
-                {
-                    let mut all = paths.lock().expect("paths lock");
-                    let path = all.entry(name.clone()).or_default();
-                    if path.last().is_none_or(|q| q.distance(p) >= 0.05) {
-                        path.push(p);
-                    }
+                let t = *rx.borrow_and_update();
+                let p = t.fleet_position();
+                if last.is_none_or(|q| q.distance(p) >= 0.05) {
+                    last = Some(p);
+                    events.event(&Event {
+                        time: clock.now(),
+                        drone: name.clone(),
+                        kind: Kind::Telemetry {
+                            position: p,
+                            altitude: t.position.z,
+                            battery: t.battery,
+                        },
+                    });
                 }
                 tokio::select! {
                     _ = stop.cancelled() => return,
@@ -426,7 +438,14 @@ fn record_paths(
             }
         });
     }
-    paths
+}
+
+/// Where a run's events go: its mission logs, the plot's paths and
+/// whoever else `options` names.
+fn run_sink(logs: &LogWriter, paths: &Arc<Paths>, options: &RunOptions) -> Arc<dyn Sink> {
+    let mut sinks: Vec<Arc<dyn Sink>> = vec![Arc::new(logs.missions()), paths.clone()];
+    sinks.extend(options.events.clone());
+    Arc::new(Tee::new(sinks))
 }
 
 fn executor_options(peers: Vec<String>, options: &RunOptions) -> ExecutorOptions {
@@ -436,7 +455,6 @@ fn executor_options(peers: Vec<String>, options: &RunOptions) -> ExecutorOptions
         flush_timeout: Duration::from_secs(10),
         peers,
         source: options.source.clone(),
-        progress: options.progress.clone(),
         stop: options.stop.clone(),
         journal: None,
         liveness: Liveness::default(),
@@ -492,8 +510,17 @@ pub async fn run_fleet(
         &airframes,
     )
     .await?;
+    let paths = Arc::new(Paths::default());
+    let events = run_sink(&logs, &paths, options);
     let paths_stop = CancellationToken::new();
-    let paths = record_paths(&built.adapters, paths_stop.clone());
+    // The samplers hold the run's sink: they stop however this returns.
+    let _samplers = paths_stop.clone().drop_guard();
+    sample_telemetry(
+        &built.adapters,
+        &built.clock,
+        events.clone(),
+        paths_stop.clone(),
+    );
     record_airframes(&built.sims, options, paths_stop.clone());
     let mut bridges = Vec::new();
     let mut tasks = Vec::new();
@@ -517,7 +544,7 @@ pub async fn run_fleet(
             delivered,
             link: e.link,
             telemetry: e.telemetry,
-            log: logs.drone(&peer),
+            events: events.clone(),
         };
         let mut exec_options = executor_options(all.clone(), options);
         exec_options.journal = journal.cloned();
@@ -536,7 +563,7 @@ pub async fn run_fleet(
     }
     paths_stop.cancel();
     drop(bridges);
-    let trajectories = paths.lock().expect("paths lock").clone();
+    let trajectories = paths.paths();
     drop(built);
     let log_errors = logs.finish();
     Ok(RunReport {
@@ -581,8 +608,17 @@ pub async fn run_peer(
         &airframes,
     )
     .await?;
+    let paths = Arc::new(Paths::default());
+    let events = run_sink(&logs, &paths, options);
     let paths_stop = CancellationToken::new();
-    let paths = record_paths(&built.adapters, paths_stop.clone());
+    // The samplers hold the run's sink: they stop however this returns.
+    let _samplers = paths_stop.clone().drop_guard();
+    sample_telemetry(
+        &built.adapters,
+        &built.clock,
+        events.clone(),
+        paths_stop.clone(),
+    );
     record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
     let e = endpoint(
@@ -612,7 +648,7 @@ pub async fn run_peer(
         delivered,
         link: e.link,
         telemetry: e.telemetry,
-        log: logs.drone(peer),
+        events,
     };
     let mut exec_options = executor_options(all, options);
     exec_options.journal = journal.cloned();
@@ -623,7 +659,7 @@ pub async fn run_peer(
     tokio::time::sleep(options.linger).await;
     paths_stop.cancel();
     drop(b);
-    let trajectories = paths.lock().expect("paths lock").clone();
+    let trajectories = paths.paths();
     drop(built);
     let log_errors = logs.finish();
     Ok(RunReport {

@@ -5,8 +5,36 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write;
+use std::sync::Mutex;
 
 use eamos_geo::Vec3;
+
+use crate::event::{Event, Kind, Sink};
+
+/// The plot's paths: every drone's positions, in the order of its
+/// telemetry samples (a sink of the run's events).
+#[derive(Default)]
+pub struct Paths(Mutex<BTreeMap<String, Vec<Vec3>>>);
+
+impl Paths {
+    /// The paths so far.
+    pub fn paths(&self) -> BTreeMap<String, Vec<Vec3>> {
+        self.0.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+}
+
+impl Sink for Paths {
+    fn event(&self, e: &Event) {
+        if let Kind::Telemetry { position, .. } = e.kind {
+            self.0
+                .lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .entry(e.drone.clone())
+                .or_default()
+                .push(position);
+        }
+    }
+}
 
 const COLOURS: &[&str] = &[
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",

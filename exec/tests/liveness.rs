@@ -10,8 +10,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use eamos_exec::executor::{Progress, ProgressKind};
-use eamos_exec::log::{read_mission_log, MissionEvent, MissionRecord};
+use eamos_exec::event::{Channel, Event, Kind};
+use eamos_exec::log::read_mission_log;
 use eamos_exec::runner::{run_fleet, RunOptions, RunReport};
 use eamos_exec::transport::faulty::Partition;
 use eamos_exec::Outcome;
@@ -19,7 +19,6 @@ use eamos_fleet::Fleet;
 use eamos_lang::SourceFile;
 use eamos_mid::Vec3;
 use eamos_slicer::Slices;
-use tokio::sync::mpsc;
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -56,7 +55,7 @@ struct Run {
 }
 
 impl Run {
-    fn log(&self, peer: &str) -> Vec<MissionRecord> {
+    fn log(&self, peer: &str) -> Vec<Event> {
         read_mission_log(&self.dir.path().join(format!("{peer}.mission.jsonl"))).unwrap()
     }
 
@@ -73,8 +72,8 @@ impl Run {
     fn failsafes(&self, peer: &str) -> Vec<(String, bool)> {
         self.log(peer)
             .into_iter()
-            .filter_map(|r| match r.event {
-                MissionEvent::Failsafe {
+            .filter_map(|r| match r.kind {
+                Kind::Failsafe {
                     failsafe, airborne, ..
                 } => Some((failsafe, airborne)),
                 _ => None,
@@ -89,8 +88,8 @@ impl Run {
     fn stuck(&self, peer: &str) -> Vec<(Vec<String>, String)> {
         self.log(peer)
             .into_iter()
-            .filter_map(|r| match r.event {
-                MissionEvent::Stuck { lost, policy } => Some((lost, policy)),
+            .filter_map(|r| match r.kind {
+                Kind::Stuck { lost, policy } => Some((lost, policy)),
                 _ => None,
             })
             .collect()
@@ -119,27 +118,27 @@ async fn fly_mission_and_cut_lead(
     .unwrap();
     let dir = tempfile::tempdir().unwrap();
     let partition = Partition::new();
-    let (progress_tx, mut progress_rx) = mpsc::unbounded_channel::<Progress>();
+    let (events, mut events_rx) = Channel::new();
     let options = RunOptions {
         speed: 50.0,
         out: dir.path().to_path_buf(),
         source: Some(source),
         max_duration: Some(300.0),
-        progress: Some(progress_tx),
+        events: Some(Arc::new(events)),
         partition: Some(partition.clone()),
         ..RunOptions::default()
     };
     let watcher = tokio::spawn(async move {
         let mut cut = false;
-        while let Some(p) = progress_rx.recv().await {
-            match (&p.drone[..], &p.what) {
-                ("Lead", ProgressKind::ActionStarted(a)) if a.starts_with("FlyByX") && !cut => {
+        while let Some(e) = events_rx.recv().await {
+            match (&e.drone[..], &e.kind) {
+                ("Lead", Kind::ActionStarted { action, .. })
+                    if action.starts_with("FlyByX") && !cut =>
+                {
                     partition.cut("Lead");
                     cut = true;
                 }
-                ("Follow", ProgressKind::Alert(a))
-                    if a.starts_with("stuck") && heal == Heal::WhenFollowIsStuck =>
-                {
+                ("Follow", Kind::Stuck { .. }) if heal == Heal::WhenFollowIsStuck => {
                     partition.heal("Lead");
                 }
                 _ => {}
@@ -179,15 +178,15 @@ fn check_common(run: &Run, policy: &str) {
     }
     let gcs = run.log("GCS");
     assert!(
-        gcs.iter().any(|r| r.event
-            == MissionEvent::PeerLost {
+        gcs.iter().any(|r| r.kind
+            == Kind::PeerLost {
                 peer: "Lead".into()
             }),
         "the ground station reports Lead lost"
     );
     assert!(
-        gcs.iter().any(|r| r.event
-            == MissionEvent::PeerStuck {
+        gcs.iter().any(|r| r.kind
+            == Kind::PeerStuck {
                 peer: "Follow".into(),
                 lost: "Lead".into(),
                 policy: policy.into(),
@@ -273,22 +272,20 @@ async fn a_drone_waiting_on_a_lost_peer_holds_and_goes_on_when_the_peer_is_back_
     let follow = run.log("Follow");
     let stuck = follow
         .iter()
-        .position(|r| matches!(r.event, MissionEvent::Stuck { .. }))
+        .position(|r| matches!(r.kind, Kind::Stuck { .. }))
         .unwrap();
     let back = follow
         .iter()
         .position(|r| {
-            r.event
-                == MissionEvent::PeerBack {
+            r.kind
+                == Kind::PeerBack {
                     peer: "Lead".into(),
                 }
         })
         .expect("Follow saw Lead back");
     let second_leg = follow
         .iter()
-        .position(|r| {
-            matches!(&r.event, MissionEvent::ActionStarted { action, .. } if action == "FlyByX")
-        })
+        .position(|r| matches!(&r.kind, Kind::ActionStarted { action, .. } if action == "FlyByX"))
         .expect("Follow flew its second leg");
     assert!(stuck < back && back < second_leg);
 }
@@ -324,10 +321,14 @@ async fn a_drone_cut_off_from_everyone_decides_alone_once_it_has_nothing_left_to
     assert_eq!(lead[0].0, vec!["Follow", "Free", "GCS"]);
     assert!(matches!(run.outcome("Lead"), Outcome::PeerLost { .. }));
     let lead_log = run.log("Lead");
-    assert!(lead_log.iter().any(|r| matches!(
-        &r.event,
-        MissionEvent::ActionFinished { action, outcome, .. } if action == "Land()" && outcome == "ok"
-    )), "{:#?}", lead_log.iter().map(|r| &r.event).collect::<Vec<_>>());
+    assert!(
+        lead_log.iter().any(|r| matches!(
+            &r.kind,
+            Kind::ActionFinished { action, outcome, .. } if action == "Land()" && outcome == "ok"
+        )),
+        "{:#?}",
+        lead_log.iter().map(|r| &r.kind).collect::<Vec<_>>()
+    );
 }
 
 /// The mission of the condition tests: Free hovers a while on its own,
@@ -393,8 +394,8 @@ func SEQ_Follow() {{
 fn actions_started(run: &Run, peer: &str) -> Vec<String> {
     run.log(peer)
         .into_iter()
-        .filter_map(|r| match r.event {
-            MissionEvent::ActionStarted { action, .. } => Some(action),
+        .filter_map(|r| match r.kind {
+            Kind::ActionStarted { action, .. } => Some(action),
             _ => None,
         })
         .collect()
@@ -414,8 +415,8 @@ fn check_stuck_on_a_condition(run: &Run) {
         run.outcome("Follow")
     );
     assert!(
-        run.log("GCS").iter().any(|r| r.event
-            == MissionEvent::PeerStuck {
+        run.log("GCS").iter().any(|r| r.kind
+            == Kind::PeerStuck {
                 peer: "Follow".into(),
                 lost: "Lead".into(),
                 policy: "land".into(),

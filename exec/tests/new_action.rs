@@ -7,7 +7,8 @@
 
 use std::sync::Arc;
 
-use eamos_exec::log::{read_mission_log, MissionEvent};
+use eamos_exec::event::Kind;
+use eamos_exec::log::read_mission_log;
 use eamos_exec::runner::{run_fleet, RunOptions};
 use eamos_exec::Outcome;
 use eamos_fleet::Fleet;
@@ -101,13 +102,11 @@ async fn a_mission_with_actions_declared_only_in_toml_flies_in_the_simulator() {
     let log = read_mission_log(&dir.path().join("D1.mission.jsonl")).unwrap();
     let at = |event: &str, name: &str| {
         log.iter()
-            .find_map(|r| match &r.event {
-                MissionEvent::ActionStarted { action, .. }
-                    if event == "start" && action == name =>
-                {
+            .find_map(|r| match &r.kind {
+                Kind::ActionStarted { action, .. } if event == "start" && action == name => {
                     Some(r.time)
                 }
-                MissionEvent::ActionFinished {
+                Kind::ActionFinished {
                     action, outcome, ..
                 } if event == "end"
                     && action.starts_with(&format!("{name}("))

@@ -6,7 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use eamos_exec::log::{read_mission_log, MissionEvent, MissionRecord};
+use eamos_exec::event::{Event, Kind};
+use eamos_exec::log::read_mission_log;
 use eamos_exec::runner::{run_fleet, RunOptions, RunReport, TransportKind};
 use eamos_exec::transport::faulty::Faults;
 use eamos_exec::Outcome;
@@ -53,7 +54,7 @@ async fn fly(
     (slices, report, dir)
 }
 
-fn log_of(dir: &Path, drone: &str) -> Vec<MissionRecord> {
+fn log_of(dir: &Path, drone: &str) -> Vec<Event> {
     read_mission_log(&dir.join(format!("{drone}.mission.jsonl"))).unwrap()
 }
 
@@ -79,10 +80,10 @@ fn assert_completed_with_slice_counts(slices: &Slices, report: &RunReport) {
 }
 
 /// Mission times at which `drone` started each action, in order.
-fn action_starts(log: &[MissionRecord]) -> Vec<(f64, String, Vec<f64>)> {
+fn action_starts(log: &[Event]) -> Vec<(f64, String, Vec<f64>)> {
     log.iter()
-        .filter_map(|r| match &r.event {
-            MissionEvent::ActionStarted { action, args, .. } => {
+        .filter_map(|r| match &r.kind {
+            Kind::ActionStarted { action, args, .. } => {
                 Some((r.time, action.clone(), args.clone()))
             }
             _ => None,
@@ -90,10 +91,10 @@ fn action_starts(log: &[MissionRecord]) -> Vec<(f64, String, Vec<f64>)> {
         .collect()
 }
 
-fn action_ends(log: &[MissionRecord]) -> Vec<(f64, String)> {
+fn action_ends(log: &[Event]) -> Vec<(f64, String)> {
     log.iter()
-        .filter_map(|r| match &r.event {
-            MissionEvent::ActionFinished {
+        .filter_map(|r| match &r.kind {
+            Kind::ActionFinished {
                 action, outcome, ..
             } if outcome == "ok" => Some((r.time, action.clone())),
             _ => None,

@@ -4,7 +4,8 @@
 
 use std::sync::Arc;
 
-use eamos_exec::log::{read_mission_log, MissionEvent};
+use eamos_exec::event::Kind;
+use eamos_exec::log::read_mission_log;
 use eamos_exec::runner::{run_fleet, RunOptions, TransportKind};
 use eamos_exec::Outcome;
 use eamos_fleet::Fleet;
@@ -68,14 +69,14 @@ async fn fly(transport: TransportKind) {
     let log = read_mission_log(&dir.path().join("D1.mission.jsonl")).unwrap();
     let fly_started = log
         .iter()
-        .find_map(|r| match &r.event {
-            MissionEvent::ActionStarted { action, .. } if action == "FlyByX" => Some(r.time),
+        .find_map(|r| match &r.kind {
+            Kind::ActionStarted { action, .. } if action == "FlyByX" => Some(r.time),
             _ => None,
         })
         .expect("D1 flew");
     let waited = log
         .iter()
-        .any(|r| matches!(&r.event, MissionEvent::ConditionWaiting { .. }));
+        .any(|r| matches!(&r.kind, Kind::ConditionWaiting { .. }));
     assert!(waited, "D1 should have waited for D2 to climb");
     // D2 was more than a metre above D1 (at 2 m) when D1 set off: its
     // adapter log says where it was.

@@ -1,14 +1,15 @@
 //! The agent on a drone's companion computer: waits for its slice,
 //! answers the ground station, flies each started mission.
 
-use std::fmt;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
+use std::time::Instant;
 
 use tokio::sync::mpsc;
 use tokio_util::sync::CancellationToken;
 
 use eamos_exec::abort;
+use eamos_exec::event::{Event, Kind, Sink};
 use eamos_exec::executor::Outcome;
 use eamos_exec::runner::{self, RunOptions};
 use eamos_fleet::Fleet;
@@ -39,35 +40,39 @@ pub struct AgentConfig {
     pub once: bool,
 }
 
-/// What an agent did, for the command line to print.
-#[derive(Debug, Clone, PartialEq)]
-pub enum AgentEvent {
-    Waiting { endpoints: Vec<String> },
-    Accepted { mission: String, digest: String },
-    Refused { what: &'static str, reason: String },
-    Started { identity: String },
-    Ended { identity: String, outcome: String },
+/// The line an agent prints for one of its roll-out events (`None` for
+/// the events of a flight, which its mission logs keep).
+pub fn describe(kind: &Kind) -> Option<String> {
+    Some(match kind {
+        Kind::RolloutWaiting { endpoints } => format!(
+            "waiting for a slice (roll-out via {})",
+            endpoints.join(", ")
+        ),
+        Kind::RolloutAccepted { mission, digest } => {
+            format!("accepted the slice of {mission} (digest {digest})")
+        }
+        Kind::RolloutRefused { what, reason } => format!("refused a {what}: {reason}"),
+        Kind::RolloutStarted { identity } => format!("started mission {identity}"),
+        Kind::RolloutEnded { identity, outcome } => format!("mission {identity} ended: {outcome}"),
+        _ => return None,
+    })
 }
 
-impl fmt::Display for AgentEvent {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            AgentEvent::Waiting { endpoints } => {
-                write!(
-                    f,
-                    "waiting for a slice (roll-out via {})",
-                    endpoints.join(", ")
-                )
-            }
-            AgentEvent::Accepted { mission, digest } => {
-                write!(f, "accepted the slice of {mission} (digest {digest})")
-            }
-            AgentEvent::Refused { what, reason } => write!(f, "refused a {what}: {reason}"),
-            AgentEvent::Started { identity } => write!(f, "started mission {identity}"),
-            AgentEvent::Ended { identity, outcome } => {
-                write!(f, "mission {identity} ended: {outcome}")
-            }
-        }
+/// Says what the agent did into its sink, stamped with the seconds since
+/// it started (there is no mission clock outside a flight).
+struct Say {
+    drone: String,
+    since: Instant,
+    events: Arc<dyn Sink>,
+}
+
+impl Say {
+    fn say(&self, kind: Kind) {
+        self.events.event(&Event {
+            time: self.since.elapsed().as_secs_f64(),
+            drone: self.drone.clone(),
+            kind,
+        });
     }
 }
 
@@ -109,11 +114,17 @@ struct AgentState {
 /// Runs the agent of one drone: waits for its slice, answers the ground
 /// station, flies each started mission with [`runner::run_peer`]. Returns
 /// after one mission when `once`, otherwise when `stop` is cancelled.
+/// What it does, and what each flight does, goes to `events`: one stream.
 pub async fn run_agent(
     config: AgentConfig,
-    events: mpsc::UnboundedSender<AgentEvent>,
+    events: Arc<dyn Sink>,
     stop: CancellationToken,
 ) -> Result<(), DeployError> {
+    let say = Arc::new(Say {
+        drone: config.drone.clone(),
+        since: Instant::now(),
+        events,
+    });
     if config.drone.is_empty()
         || config
             .drone
@@ -160,7 +171,7 @@ pub async fn run_agent(
         .declare_token(rollout_key(&config.drone, "agent"))
         .await
         .map_err(zerr)?;
-    let _ = events.send(AgentEvent::Waiting {
+    say.say(Kind::RolloutWaiting {
         endpoints: options.connect.clone(),
     });
     let (ended_tx, mut ended_rx) = mpsc::unbounded_channel::<()>();
@@ -196,7 +207,7 @@ pub async fn run_agent(
                         (Some(m), _) => Answer::Refused { reason: format!("busy: flying {m}") },
                         (None, Err(reason)) => Answer::Refused { reason },
                         (None, Ok(Offer::New { slice, digest, fleet, session })) => {
-                            let _ = events.send(AgentEvent::Accepted {
+                            say.say(Kind::RolloutAccepted {
                                 mission: slice.mission_id.clone(),
                                 digest: digest.clone(),
                             });
@@ -212,7 +223,7 @@ pub async fn run_agent(
                     }
                 };
                 if let Answer::Refused { reason } = &answer {
-                    let _ = events.send(AgentEvent::Refused { what: "slice", reason: reason.clone() });
+                    say.say(Kind::RolloutRefused { what: "slice".into(), reason: reason.clone() });
                 }
                 let _ = q.reply(q.key_expr().clone(), encode(&answer)).await;
             }
@@ -241,17 +252,17 @@ pub async fn run_agent(
                                 (h.slice.clone(), h.digest.clone(), h.fleet.clone())
                             };
                             s.flying = Some(start.identity.clone());
-                            let _ = events.send(AgentEvent::Started { identity: start.identity.clone() });
+                            say.say(Kind::RolloutStarted { identity: start.identity.clone() });
                             tokio::spawn(fly(
                                 config.clone(), slice, fleet, start, state.clone(),
-                                events.clone(), ended_tx.clone(), stop.clone(),
+                                say.clone(), ended_tx.clone(), stop.clone(),
                             ));
                             Answer::Accepted { digest }
                         }
                     }
                 };
                 if let Answer::Refused { reason } = &answer {
-                    let _ = events.send(AgentEvent::Refused { what: "start command", reason: reason.clone() });
+                    say.say(Kind::RolloutRefused { what: "start command".into(), reason: reason.clone() });
                 }
                 let _ = q.reply(q.key_expr().clone(), encode(&answer)).await;
             }
@@ -266,7 +277,7 @@ async fn fly(
     fleet: Fleet,
     start: StartCommand,
     state: Arc<Mutex<AgentState>>,
-    events: mpsc::UnboundedSender<AgentEvent>,
+    say: Arc<Say>,
     ended: mpsc::UnboundedSender<()>,
     stop: CancellationToken,
 ) {
@@ -276,6 +287,8 @@ async fn fly(
         seed: start.seed,
         out: config.out.join(&slice.mission),
         stop: stop.child_token(),
+        // The flight's events join the agent's own stream.
+        events: Some(say.events.clone()),
         // The flight begins when the ground station issued its start: an
         // abort issued before that is a recording of an earlier flight's.
         abort_opener: config
@@ -293,7 +306,7 @@ async fn fly(
         Err(e) => format!("failed: {e}"),
     };
     state.lock().expect("agent state").flying = None;
-    let _ = events.send(AgentEvent::Ended {
+    say.say(Kind::RolloutEnded {
         identity: start.identity,
         outcome,
     });

@@ -68,7 +68,7 @@ pub mod wire;
 #[cfg(test)]
 mod tests;
 
-pub use agent::{run_agent, AgentConfig, AgentEvent};
+pub use agent::{describe, run_agent, AgentConfig};
 pub use gate::{Gate, Offer};
 pub use ground::{fly_ground_station, Delivery, RollOut};
 pub use keys::{ground_key, trusted_key};

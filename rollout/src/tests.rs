@@ -364,3 +364,26 @@ fn roll_out_endpoints_default_to_a_loopback_port_of_the_fleet_and_agents_connect
     assert!(rollout_options(&g, "D1").listen.is_empty());
     assert!(rollout_options(&g, GCS).connect.is_empty());
 }
+
+#[test]
+fn an_agent_prints_its_rollout_events_and_leaves_a_flight_to_its_logs() {
+    use eamos_exec::event::Kind;
+    let refused = Kind::RolloutRefused {
+        what: "start command".into(),
+        reason: "replayed".into(),
+    };
+    assert_eq!(
+        crate::describe(&refused).as_deref(),
+        Some("refused a start command: replayed")
+    );
+    let ended = Kind::RolloutEnded {
+        identity: "M-1".into(),
+        outcome: "completed".into(),
+    };
+    assert_eq!(
+        crate::describe(&ended).as_deref(),
+        Some("mission M-1 ended: completed")
+    );
+    let flight = Kind::PeerLost { peer: "D2".into() };
+    assert!(crate::describe(&flight).is_none() && !flight.is_rollout());
+}

@@ -12,11 +12,11 @@
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::Arc;
 
-use tokio::sync::mpsc;
-
+use eamos_exec::event::{Channel, Kind};
 use eamos_fleet::Fleet;
-use eamos_rollout::{self as rollout, AgentConfig, AgentEvent, CancellationToken};
+use eamos_rollout::{self as rollout, AgentConfig, CancellationToken};
 
 /// Wait on a drone's companion computer for its slice, then fly it.
 #[derive(clap::Args)]
@@ -93,18 +93,22 @@ pub fn run(args: Args) -> ExitCode {
                 on_signal.cancel();
             }
         });
-        let (tx, mut rx) = mpsc::unbounded_channel();
+        // One stream: the roll-out's events and each flight's. The flights'
+        // go to their mission logs; this prints the roll-out's.
+        let (events, mut rx) = Channel::new();
         let printer = tokio::spawn(async move {
             let mut completed = false;
             while let Some(e) = rx.recv().await {
-                if let AgentEvent::Ended { outcome, .. } = &e {
+                if let Kind::RolloutEnded { outcome, .. } = &e.kind {
                     completed = outcome == "completed";
                 }
-                println!("{drone}: {e}");
+                if let Some(line) = rollout::describe(&e.kind) {
+                    println!("{drone}: {line}");
+                }
             }
             completed
         });
-        let r = rollout::run_agent(config, tx, stop).await;
+        let r = rollout::run_agent(config, Arc::new(events), stop).await;
         let completed = printer.await.unwrap_or(false);
         r.map(|()| completed)
     });

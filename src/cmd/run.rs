@@ -17,7 +17,8 @@ use std::time::Duration;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use tokio::sync::mpsc;
 
-use eamos_exec::executor::{Progress, ProgressKind};
+use eamos_exec::event::{Channel, Event, Kind};
+use eamos_mid::ActionCall;
 
 use super::mission::{self, bad_input, Mission};
 use eamos_exec::runner::{self, RunOptions, RunReport, TransportKind};
@@ -166,7 +167,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
-    let (progress_tx, progress_rx) = mpsc::unbounded_channel();
+    let (events, events_rx) = Channel::new();
     let options = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
@@ -176,7 +177,7 @@ pub fn run(args: Args) -> ExitCode {
             Transport::Zenoh => TransportKind::Zenoh,
         },
         source: Some(Arc::new(source)),
-        progress: Some(progress_tx),
+        events: Some(Arc::new(events)),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
         seed: args.seed,
         journal: args.journal.clone(),
@@ -195,7 +196,7 @@ pub fn run(args: Args) -> ExitCode {
                 stop.cancel();
             }
         });
-        let display = tokio::spawn(show_progress(progress_rx, action_counts(&slices, &shown)));
+        let display = tokio::spawn(show_progress(events_rx, action_counts(&slices, &shown)));
         let result = match &peer {
             Some(p) => match slices.get(p) {
                 Some(slice) => runner::run_peer(slice, &fleet, &profiles, &options).await,
@@ -257,10 +258,7 @@ fn action_counts(slices: &Slices, shown: &[String]) -> Vec<(String, Option<u64>)
 
 /// Live progress per drone: bars when stderr is a terminal, plain lines
 /// otherwise (logs, CI).
-async fn show_progress(
-    mut rx: mpsc::UnboundedReceiver<Progress>,
-    peers: Vec<(String, Option<u64>)>,
-) {
+async fn show_progress(mut rx: mpsc::UnboundedReceiver<Event>, peers: Vec<(String, Option<u64>)>) {
     let tty = std::io::stderr().is_terminal();
     let multi = MultiProgress::with_draw_target(if tty {
         ProgressDrawTarget::stderr()
@@ -297,52 +295,83 @@ async fn show_progress(
         bar.set_prefix(p.clone());
         bars.insert(p.clone(), bar);
     }
-    while let Some(p) = rx.recv().await {
-        let Some(bar) = bars.get(&p.drone) else {
+    while let Some(e) = rx.recv().await {
+        let Some(bar) = bars.get(&e.drone) else {
             continue;
         };
-        let c = counts.entry(p.drone.clone()).or_default();
-        let line = match &p.what {
-            ProgressKind::ActionStarted(a) => format!("started {a}"),
-            ProgressKind::ActionFinished(a) => {
+        let c = counts.entry(e.drone.clone()).or_default();
+        if let Some(alert) = alert(&e) {
+            // Lost peers, stuck drones, aborts: kept on screen.
+            let line = format!("[{:>8.2} s] {:>width$} {alert}", e.time, e.drone);
+            if tty {
+                let _ = multi.println(line);
+            } else {
+                eprintln!("{line}");
+            }
+            continue;
+        }
+        let line = match &e.kind {
+            Kind::ActionStarted { action, args, .. } => {
+                format!("started {}", ActionCall::new(action.clone(), args.clone()))
+            }
+            Kind::ActionResumed { action, args, .. } => format!(
+                "started {} (resumed)",
+                ActionCall::new(action.clone(), args.clone())
+            ),
+            Kind::ActionFinished { action, .. } => {
                 bar.inc(1);
-                format!("finished {a}")
+                format!("finished {action}")
             }
-            ProgressKind::Sent => {
+            Kind::BridgeSent { .. } => {
                 c.0 += 1;
-                continue_line(c)
-            }
-            ProgressKind::Received => {
-                c.1 += 1;
-                continue_line(c)
-            }
-            ProgressKind::Waiting(cond) => format!("waits for {cond}"),
-            ProgressKind::Alert(alert) => {
-                // Lost peers, stuck drones, aborts: kept on screen.
-                let line = format!("[{:>8.2} s] {:>width$} {alert}", p.time, p.drone);
-                if tty {
-                    let _ = multi.println(line);
-                } else {
-                    eprintln!("{line}");
-                }
                 continue;
             }
-            ProgressKind::Ended(reason) => {
+            Kind::BridgeReceived { .. } => {
+                c.1 += 1;
+                continue;
+            }
+            Kind::ConditionWaiting { condition, .. } => format!("waits for {condition}"),
+            Kind::Stopped { reason } => {
                 bar.finish_with_message(format!("{reason} ({})", continue_line(c)));
                 if !tty {
-                    eprintln!("[{:>8.2} s] {:>width$} {reason}", p.time, p.drone);
+                    eprintln!("[{:>8.2} s] {:>width$} {reason}", e.time, e.drone);
                 }
                 continue;
             }
+            _ => continue,
         };
         if tty {
-            if !matches!(p.what, ProgressKind::Sent | ProgressKind::Received) {
-                bar.set_message(format!("{line}  ({})", continue_line(c)));
-            }
-        } else if !matches!(p.what, ProgressKind::Sent | ProgressKind::Received) {
-            eprintln!("[{:>8.2} s] {:>width$} {line}", p.time, p.drone);
+            bar.set_message(format!("{line}  ({})", continue_line(c)));
+        } else {
+            eprintln!("[{:>8.2} s] {:>width$} {line}", e.time, e.drone);
         }
     }
+}
+
+/// The line kept on screen for an event a crew must not miss: a peer lost
+/// or back, a drone stuck, an abort, a failsafe flown.
+fn alert(e: &Event) -> Option<String> {
+    Some(match &e.kind {
+        Kind::PeerLost { peer } => format!("lost {peer}"),
+        Kind::PeerBack { peer } => format!("{peer} is back"),
+        Kind::Isolated { lost } => format!("every peer is lost ({})", lost.join(", ")),
+        // The ground station flies nothing: it only reports.
+        Kind::Stuck { lost, .. } if e.drone == GCS => {
+            format!("waits on {}, which is lost", lost.join(", "))
+        }
+        Kind::Stuck { lost, policy } => {
+            format!("stuck: waits on {}, lost; {policy}", lost.join(", "))
+        }
+        Kind::AbortReceived { reason, .. } => format!("abort: {reason}"),
+        Kind::AbortRefused { reason, .. } => reason.clone(),
+        Kind::PeerStuck { peer, lost, policy } => format!("{peer} is stuck on {lost}: {policy}"),
+        Kind::Failsafe {
+            failsafe,
+            airborne: true,
+            ..
+        } => format!("failsafe: {failsafe}"),
+        _ => return None,
+    })
 }
 
 fn continue_line(c: &(u64, u64)) -> String {

@@ -11,11 +11,11 @@ use tokio::sync::watch;
 use eamos_mid::{ActionError, Failsafe};
 use eamos_petri::net::Colour;
 
-use super::{Executor, Outcome, ProgressKind, ABORT};
+use super::{Executor, Outcome, ABORT};
 use crate::abort;
+use crate::event::Kind;
 use crate::guard::EvalError;
 use crate::liveness::{self, Change, OnLost, Watch};
-use crate::log::MissionEvent;
 use crate::transport::{PeerId, GCS};
 
 /// How long a failsafe may take before the executor gives up waiting on it
@@ -49,10 +49,6 @@ pub(super) async fn presence_changed(
 }
 
 impl Executor {
-    fn alert(&self, line: String) {
-        self.progress(ProgressKind::Alert(line));
-    }
-
     /// Takes the peers up now (only the mission's peers count: a passing
     /// `eamos abort` is nobody's peer).
     pub(super) fn on_presence(&mut self, up: BTreeSet<PeerId>) {
@@ -69,16 +65,14 @@ impl Executor {
                     if let Some(i) = self.world.index(&peer) {
                         self.world.set_lost(i, true);
                     }
-                    self.note(MissionEvent::PeerLost { peer: peer.clone() });
-                    self.alert(format!("lost {peer}"));
+                    self.emit(Kind::PeerLost { peer: peer.clone() });
                 }
                 Change::Back(peer) => {
                     if let Some(i) = self.world.index(&peer) {
                         self.world.set_lost(i, false);
                     }
                     self.alive.stuck_on.remove(&peer);
-                    self.note(MissionEvent::PeerBack { peer: peer.clone() });
-                    self.alert(format!("{peer} is back"));
+                    self.emit(Kind::PeerBack { peer: peer.clone() });
                 }
             }
         }
@@ -128,7 +122,7 @@ impl Executor {
             // period: no token, end notice or report can reach it any more,
             // and the drones decide alone. It says so and stops following.
             let lost: Vec<String> = lost.into_iter().collect();
-            self.alert(format!("every peer is lost ({})", lost.join(", ")));
+            self.emit(Kind::Isolated { lost: lost.clone() });
             self.ended = Some(Outcome::PeerLost {
                 lost,
                 failsafe: Failsafe::Hold,
@@ -145,19 +139,14 @@ impl Executor {
         self.alive.stuck_on.extend(on.iter().cloned());
         let policy = self.options.liveness.on_lost;
         let lost: Vec<String> = on.into_iter().collect();
-        self.note(MissionEvent::Stuck {
+        self.emit(Kind::Stuck {
             lost: lost.clone(),
             policy: policy.to_string(),
         });
         if self.drone.is_none() {
             // The ground station flies nothing: it reports and follows on.
-            self.alert(format!("waits on {}, which is lost", lost.join(", ")));
             return;
         }
-        self.alert(format!(
-            "stuck: waits on {}, lost; {policy}",
-            lost.join(", ")
-        ));
         if me != GCS {
             for l in &lost {
                 self.bridges
@@ -249,21 +238,19 @@ impl Executor {
         match verdict {
             Ok(origin) => {
                 let reason = origin.describe();
-                self.note(MissionEvent::AbortReceived {
+                self.emit(Kind::AbortReceived {
                     from: from.to_string(),
                     reason: reason.clone(),
                 });
-                self.alert(format!("abort: {reason}"));
                 self.abort_peers(Some(from), colour.to_vec());
                 self.ended = Some(Outcome::Aborted { reason });
             }
             Err(reason) => {
                 tracing::warn!("{}: {reason}", self.me());
-                self.note(MissionEvent::AbortRefused {
+                self.emit(Kind::AbortRefused {
                     from: from.to_string(),
                     reason: reason.clone(),
                 });
-                self.alert(reason);
             }
         }
     }
@@ -274,12 +261,11 @@ impl Executor {
         let Some((lost, policy)) = liveness::read_stuck_notice(bridge) else {
             return;
         };
-        self.note(MissionEvent::PeerStuck {
+        self.emit(Kind::PeerStuck {
             peer: from.to_string(),
             lost: lost.clone(),
             policy: policy.to_string(),
         });
-        self.alert(format!("{from} is stuck on {lost}: {policy}"));
     }
 
     /// The failsafe that ends a run that did not complete: the policy's for
@@ -307,7 +293,7 @@ impl Executor {
             return;
         }
         let airborne = !drone.telemetry().borrow().landed;
-        self.note(MissionEvent::Failsafe {
+        self.emit(Kind::Failsafe {
             failsafe: kind.to_string(),
             reason,
             airborne,
@@ -315,7 +301,6 @@ impl Executor {
         if !airborne {
             return;
         }
-        self.alert(format!("failsafe: {kind}"));
         let result = tokio::time::timeout(FAILSAFE_TIMEOUT, drone.failsafe(kind))
             .await
             .unwrap_or_else(|_| {
@@ -328,7 +313,7 @@ impl Executor {
             Ok(()) => ("ok".to_string(), None),
             Err(e) => (e.kind().to_string(), Some(e.to_string())),
         };
-        self.note(MissionEvent::FailsafeFinished {
+        self.emit(Kind::FailsafeFinished {
             failsafe: kind.to_string(),
             outcome,
             error,

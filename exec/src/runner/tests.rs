@@ -1,5 +1,6 @@
 //! Whole runs with journals: what the journals of a completed run replay
-//! to, and an agent killed mid-pause and restarted from its journal.
+//! to, what every sink of a run sees, and an agent killed mid-pause and
+//! restarted from its journal.
 
 use std::path::Path;
 
@@ -21,7 +22,7 @@ fn action_starts(dir: &Path, peer: &str) -> usize {
     crate::log::read_mission_log(&dir.join("logs").join(format!("{peer}.mission.jsonl")))
         .map(|log| {
             log.iter()
-                .filter(|r| matches!(r.event, crate::log::MissionEvent::ActionStarted { .. }))
+                .filter(|r| matches!(r.kind, crate::event::Kind::ActionStarted { .. }))
                 .count()
         })
         .unwrap_or(0)
@@ -111,18 +112,111 @@ async fn replaying_the_journals_of_a_completed_run_gives_its_final_marking_and_r
     assert!(before.iter().sum::<usize>() > 0);
 }
 
+/// One simulated run read by two sinks, its mission logs and a channel:
+/// each peer's events agree one by one, in order; and each peer's last
+/// marking is the marking its journal replays to, the final place marked
+/// where the mission ends.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn every_sink_of_a_run_sees_the_same_events_in_order_and_the_last_marking_is_the_journals() {
+    use crate::event::{Channel, Event, Kind};
+
+    let s = slices("experiment_b.go");
+    let dir = tempfile::tempdir().unwrap();
+    let (events, mut rx) = Channel::new();
+    let options = crate::runner::RunOptions {
+        events: Some(std::sync::Arc::new(events)),
+        ..run_options(dir.path())
+    };
+    let report = crate::runner::run_fleet(
+        &s,
+        &eamos_fleet::Fleet::default(),
+        &eamos_profile::builtin(),
+        &options,
+    )
+    .await
+    .unwrap();
+    assert!(report
+        .reports
+        .iter()
+        .all(|r| r.outcome == crate::Outcome::Completed));
+    let seen: Vec<Event> = std::iter::from_fn(|| rx.try_recv().ok()).collect();
+    assert!(
+        seen.iter()
+            .any(|e| matches!(e.kind, Kind::Telemetry { .. })),
+        "the drones' telemetry is in the stream"
+    );
+    let mut finals = 0;
+    for slice in &s.slices {
+        let peer = &slice.drone;
+        let streamed: Vec<Event> = seen
+            .iter()
+            .filter(|e| &e.drone == peer && !matches!(e.kind, Kind::Telemetry { .. }))
+            .cloned()
+            .collect();
+        let logged = crate::log::read_mission_log(
+            &dir.path()
+                .join("logs")
+                .join(format!("{peer}.mission.jsonl")),
+        )
+        .unwrap();
+        assert!(logged.len() > 3, "{peer}: {logged:?}");
+        assert_eq!(logged, streamed, "{peer}");
+
+        let last: Vec<String> = streamed
+            .iter()
+            .rev()
+            .find_map(|e| match &e.kind {
+                Kind::Marking { marked } => Some(marked.clone()),
+                _ => None,
+            })
+            .expect("a marking");
+        let path = Journal::path(&dir.path().join("journal"), peer);
+        let opened = Journal::open(&path, &slice.mission_id, peer).unwrap();
+        let replayed = replay(slice, "j", &opened.records).unwrap();
+        let mut journaled: Vec<String> = replayed
+            .marking
+            .iter()
+            .zip(&slice.places)
+            .filter(|(tokens, _)| !tokens.is_empty())
+            .map(|(_, p)| p.id.clone())
+            .collect();
+        journaled.sort();
+        assert_eq!(last, journaled, "{peer}");
+        if let Some(f) = slice.final_place {
+            if last.contains(&slice.places[f as usize].id) {
+                finals += 1;
+            }
+        }
+        // A marking follows every firing and every token delivered.
+        let changes = streamed
+            .iter()
+            .filter(|e| matches!(e.kind, Kind::Fired { .. } | Kind::BridgeReceived { .. }))
+            .count();
+        let markings = streamed
+            .iter()
+            .filter(|e| matches!(e.kind, Kind::Marking { .. }))
+            .count();
+        assert_eq!(
+            markings,
+            changes + 1,
+            "{peer}: one at the start, one per change"
+        );
+    }
+    assert!(finals > 0, "the mission ended in a final place");
+}
+
 /// When `event` (the first match) happened in D1's mission log.
-fn logged_at(dir: &Path, what: impl Fn(&crate::log::MissionEvent) -> bool) -> Option<f64> {
+fn logged_at(dir: &Path, what: impl Fn(&crate::event::Kind) -> bool) -> Option<f64> {
     crate::log::read_mission_log(&dir.join("logs").join("D1.mission.jsonl"))
         .unwrap()
         .into_iter()
-        .find(|r| what(&r.event))
+        .find(|r| what(&r.kind))
         .map(|r| r.time)
 }
 
 #[test]
 fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_rest_of_the_pause() {
-    use crate::log::MissionEvent;
+    use crate::event::Kind;
     use crate::runner::{run_fleet, RunOptions};
 
     let dir = tempfile::tempdir().unwrap();
@@ -139,12 +233,12 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         .enable_all()
         .build()
         .unwrap();
-    let (progress, mut watch) = tokio::sync::mpsc::unbounded_channel();
+    let (events, mut watch) = crate::event::Channel::new();
     {
         let (s, options) = (
             s.clone(),
             RunOptions {
-                progress: Some(progress),
+                events: Some(std::sync::Arc::new(events)),
                 ..options.clone()
             },
         );
@@ -154,23 +248,23 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         });
     }
     loop {
-        let p = watch.blocking_recv().expect("the first flight reports");
-        if matches!(&p.what, crate::executor::ProgressKind::ActionFinished(a) if a.starts_with("Takeoff"))
-        {
+        let e = watch.blocking_recv().expect("the first flight reports");
+        if matches!(&e.kind, Kind::ActionFinished { action, .. } if action.starts_with("Takeoff")) {
             break;
         }
     }
     // 1 s of wall time is 20 s into the 60 s pause.
     std::thread::sleep(std::time::Duration::from_secs(1));
     first.shutdown_timeout(std::time::Duration::from_secs(5));
-    let began = logged_at(dir.path(), |e| {
-        matches!(e, MissionEvent::ActionFinished { action, .. } if action.starts_with("Takeoff"))
-    })
+    let began = logged_at(
+        dir.path(),
+        |e| matches!(e, Kind::ActionFinished { action, .. } if action.starts_with("Takeoff")),
+    )
     .unwrap();
     assert!(
         logged_at(
             dir.path(),
-            |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause")
+            |e| matches!(e, Kind::Fired { kind, .. } if kind == "pause")
         )
         .is_none(),
         "the first flight was killed before its pause was over"
@@ -194,10 +288,10 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         .reports
         .iter()
         .all(|r| r.outcome == crate::Outcome::Completed));
-    let resumed = logged_at(dir.path(), |e| matches!(e, MissionEvent::Resumed { .. })).unwrap();
+    let resumed = logged_at(dir.path(), |e| matches!(e, Kind::Resumed { .. })).unwrap();
     let over = logged_at(
         dir.path(),
-        |e| matches!(e, MissionEvent::Fired { kind, .. } if kind == "pause"),
+        |e| matches!(e, Kind::Fired { kind, .. } if kind == "pause"),
     )
     .unwrap();
     assert!(
