@@ -546,12 +546,7 @@ fn location(text: &str, name: &str, offset: usize) -> String {
     format!("{name}:{line}:{column}")
 }
 
-/// Where a drone the fleet file does not place starts: the drones of a
-/// mission stand in a row along Y (east), 3 m apart, in declaration order,
-/// so that their paths can be told apart in the plot.
-pub fn default_home(index: usize) -> Vec3 {
-    Vec3::new(0.0, 3.0 * index as f64, 0.0)
-}
+pub use eamos_geo::default_home;
 
 #[cfg(test)]
 mod tests {

@@ -982,19 +982,27 @@ impl Gen {
         id
     }
 
-    /// A drone action with plausible arguments.
+    /// A drone action with plausible arguments, flown so that the fleet
+    /// keeps apart (`eamos check` proves it): each drone stays in its own
+    /// lane along X, within half a metre east or west of its home (the
+    /// default homes stand 3 m apart along Y, so two lanes are 2 m apart),
+    /// and no loop moves a drone further every round (inside a loop or a
+    /// `Do`, motions go to points, not by distances; a climbing loop's
+    /// other drones hover).
     fn action(&mut self, d: usize, ctx: Ctx) -> Stmt {
         let r = &mut self.rng;
         let roll = r.random_range(0..100);
+        let to = |r: &mut ChaCha8Rng| {
+            let x = r.random_range(-10..=10);
+            let lane = ["-0.5", "0", "0.5"][r.random_range(0..3)];
+            format!("FlyTo({x}, {lane}, {})", half(r, 3, 8))
+        };
         let call = match roll {
-            0..=21 => format!("FlyByX({})", leg(r)),
-            22..=43 => format!("FlyByY({})", leg(r)),
-            44..=51 if !ctx.climbing => {
-                let (x, y) = (r.random_range(-10..=10), r.random_range(-10..=10));
-                format!("FlyTo({x}, {y}, {})", half(r, 3, 8))
-            }
-            44..=51 => format!("FlyByX({})", leg(r)),
-            52..=55 => format!("FlyByZ({})", half(r, 1, 3)),
+            0..=55 if ctx.climbing => format!("Hover({})", r.random_range(1..=5)),
+            0..=21 if ctx.sync => format!("FlyByX({})", leg(r)),
+            0..=51 => to(r),
+            52..=55 if ctx.sync => format!("FlyByZ({})", half(r, 1, 3)),
+            52..=55 => to(r),
             56..=73 => format!("Hover({})", r.random_range(1..=5)),
             74..=91 => "TakePhoto()".to_string(),
             92..=96 => "AdjustCamera()".to_string(),

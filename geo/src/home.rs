@@ -59,6 +59,14 @@ impl From<Vec3> for Home {
     }
 }
 
+/// Where a drone that no fleet file places starts: the drones of a mission
+/// stand in a row along Y (east), 3 m apart, in declaration order, so that
+/// their paths can be told apart (the simulator, the checker and the plot
+/// all place them so).
+pub fn default_home(index: usize) -> Vec3 {
+    Vec3::new(0.0, 3.0 * index as f64, 0.0)
+}
+
 impl Home {
     /// The home as a point of the fleet frame, `frame` being the fleet's
     /// geographic origin if it has one.

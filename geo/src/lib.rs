@@ -34,7 +34,7 @@ pub use airspace::{Airspace, Breach, DEFAULT_SEPARATION};
 pub use distance::{point_segment, segment_segment, Approach};
 pub use fence::{Fence, FenceError};
 pub use frame::LocalFrame;
-pub use home::{Home, HomeError, LocalHome};
+pub use home::{default_home, Home, HomeError, LocalHome};
 pub use ned::Ned;
 pub use vec3::Vec3;
 pub use wgs84::Wgs84;

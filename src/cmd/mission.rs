@@ -67,12 +67,8 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
 /// fleet file's, or the default row) and the airspace.
 pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
     eamos_verify::Space {
-        homes: drones
-            .iter()
-            .enumerate()
-            .map(|(i, d)| fleet.home(d, i))
-            .collect(),
-        airspace: eamos_geo::Airspace::default(),
+        homes: fleet.homes(drones),
+        airspace: fleet.airspace().clone(),
     }
 }
 

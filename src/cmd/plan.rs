@@ -43,7 +43,12 @@ pub fn svg(report: &Report, space: &Space, drones: &[String]) -> String {
     let span = (hi_x - lo_x).max(hi_y - lo_y).max(1.0);
     let scale = (SIZE - 2.0 * MARGIN) / span;
     // North (x) up, east (y) right.
-    let at = |x: f64, y: f64| (MARGIN + (y - lo_y) * scale, SIZE - MARGIN - (x - lo_x) * scale);
+    let at = |x: f64, y: f64| {
+        (
+            MARGIN + (y - lo_y) * scale,
+            SIZE - MARGIN - (x - lo_x) * scale,
+        )
+    };
     let colour = |name: &str| {
         let i = drones.iter().position(|d| d == name).unwrap_or(0);
         COLOURS[i % COLOURS.len()]

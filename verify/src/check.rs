@@ -119,7 +119,9 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         let reason = format!("not explored, see `eamos::{}`", limits[0].code);
         let (props, found) = spatial_results(space.as_ref(), Err(reason));
         let mut report = unexplored(name, input, &pt, conditions, limits);
-        report.properties.retain(|r| !props.iter().any(|q| q.property == r.property));
+        report
+            .properties
+            .retain(|r| !props.iter().any(|q| q.property == r.property));
         report.properties.extend(props);
         report.properties.sort_by_key(|r| r.property);
         report.findings.extend(found);
@@ -198,9 +200,8 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
                             _ => None,
                         })
                         .collect();
-                    let found = space::near_findings(prep, e, &hits, &|s| {
-                        ctx.trace::<Bits>(&net, &ex, s)
-                    });
+                    let found =
+                        space::near_findings(prep, e, &hits, &|s| ctx.trace::<Bits>(&net, &ex, s));
                     let undecided = if let Some(n) = e.too_many {
                         Some(format!(
                             "{n} pairs of legs or rests of two drones come within the separation: too many to watch at once (at most {}); space the drones apart or order them",
@@ -972,9 +973,8 @@ fn spatial_results(
     ));
     let homes = space::homes_findings(prep);
     let sep = prep.space.airspace.separation;
-    let method = format!(
-        "legs and rests of every two drones within {sep} m, watched in the exploration"
-    );
+    let method =
+        format!("legs and rests of every two drones within {sep} m, watched in the exploration");
     let mut found = homes;
     let undecided = match near {
         Ok((f, undecided)) => {

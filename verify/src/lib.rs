@@ -33,11 +33,11 @@ mod structural;
 
 pub use check::Options;
 pub use pnml::{PnmlError, PnmlNet};
-pub use space::{default_home, Space};
 pub use report::{
     Finding, FindingKind, GeoLeg, Geometry, InputKind, Label, Limit, Property, PropertyResult,
     Report, Stats, Step, Trace, Verdict,
 };
+pub use space::{default_home, Space};
 
 use eamos_petri::Net;
 use eamos_profile::ProfileTable;
@@ -50,14 +50,12 @@ pub fn check_net(
     source: Option<&str>,
     options: &Options,
 ) -> Report {
-    let space = options
-        .spatial
-        .then(|| {
-            options
-                .space
-                .clone()
-                .unwrap_or_else(|| Space::default_for(net.drones.len()))
-        });
+    let space = options.spatial.then(|| {
+        options
+            .space
+            .clone()
+            .unwrap_or_else(|| Space::default_for(net.drones.len()))
+    });
     check::check(
         mission::subject(net, profiles, source, space.as_ref()),
         options,

@@ -489,7 +489,10 @@ fn prepare(
     };
     let (running, ends, cancels) = match &positions {
         Ok(p) => (
-            p.motions.iter().map(|t| place_index[t.running.index()]).collect(),
+            p.motions
+                .iter()
+                .map(|t| place_index[t.running.index()])
+                .collect(),
             p.motions.iter().map(|t| compact(&t.ends)).collect(),
             p.motions.iter().map(|t| compact(&t.cancels)).collect(),
         ),

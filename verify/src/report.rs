@@ -8,8 +8,8 @@
 
 use std::fmt::Write as _;
 
-use eamos_lang::span::SourceFile;
 use eamos_geo::Vec3;
+use eamos_lang::span::SourceFile;
 use eamos_lang::Span;
 use miette::{GraphicalReportHandler, GraphicalTheme, LabeledSpan, NamedSource};
 use serde_json::{json, Value};
@@ -65,7 +65,9 @@ impl Property {
             Property::Conflicts => "no drone runs two exclusive actions at once",
             Property::Conditions => "every condition can hold and can fail",
             Property::Separation => "no two drones come closer than the separation",
-            Property::Airspace => "every leg stays inside the fence, below the ceiling, above the floor",
+            Property::Airspace => {
+                "every leg stays inside the fence, below the ceiling, above the floor"
+            }
             Property::FlightState => {
                 "every action starts in a flight state it may, with arguments in range"
             }

@@ -15,6 +15,27 @@ const DRIFT_ROUNDS: u64 = 1_000_000;
 
 pub(crate) fn findings(positions: &Positions, space: &Space, names: &Names) -> Vec<Finding> {
     let mut out = Vec::new();
+    for (d, name) in names.drones().iter().enumerate() {
+        let home = space.home(d as u16);
+        let at = Vec3::new(home.x, home.y, 0.0);
+        if space.airspace.breach(at, at).is_some() {
+            out.push(Finding {
+                kind: FindingKind::LeavesAirspace,
+                message: format!(
+                    "{name}'s home ({:.1}, {:.1}) is outside the fence",
+                    home.x, home.y
+                ),
+                labels: Vec::new(),
+                notes: vec!["move the home or the fence in the fleet file".into()],
+                trace: None,
+                geometry: Some(Geometry {
+                    legs: Vec::new(),
+                    closest: Some((at, at)),
+                    distance: None,
+                }),
+            });
+        }
+    }
     let mut seen = std::collections::BTreeSet::new();
     for (m, legs) in positions.legs.iter().enumerate() {
         let t = &positions.motions[m];
@@ -24,6 +45,12 @@ pub(crate) fn findings(positions: &Positions, space: &Space, names: &Names) -> V
             let Some(breach) = sweep.breach(&space.airspace) else {
                 continue;
             };
+            // A leg that starts outside follows one that left: that one
+            // is the finding.
+            let (start, _) = sweep.ends();
+            if matches!(sweep, Shape::Leg(..)) && space.airspace.breach(start, start).is_some() {
+                continue;
+            }
             if !seen.insert((t.span.start, t.span.end)) {
                 break;
             }
@@ -31,8 +58,15 @@ pub(crate) fn findings(positions: &Positions, space: &Space, names: &Names) -> V
             break;
         }
     }
-    for drift in &positions.drifts {
-        out.push(drift_finding(drift, positions, space, names));
+    // A drift shows at every step of the loop and at everything after
+    // it: say it once per drone, at a step inside the loop.
+    let mut drifting = std::collections::BTreeSet::new();
+    let mut drifts: Vec<&Drift> = positions.drifts.iter().collect();
+    drifts.sort_by_key(|d| (std::cmp::Reverse(d.colour.len()), d.motion));
+    for drift in drifts {
+        if drifting.insert(positions.motions[drift.motion].drone) {
+            out.push(drift_finding(drift, positions, space, names));
+        }
     }
     out
 }
@@ -55,7 +89,10 @@ fn breach_finding(
             p.z,
             a.ceiling.unwrap_or_default()
         ),
-        Breach::Floor(_) => format!("goes down to {:.1} m, below the floor of {} m", p.z, a.floor),
+        Breach::Floor(_) => format!(
+            "goes down to {:.1} m, below the floor of {} m",
+            p.z, a.floor
+        ),
     };
     let round = match leg.colour.last() {
         Some(k) => format!(" in round {} of its loop", k + 1),
@@ -107,31 +144,50 @@ fn drift_finding(drift: &Drift, positions: &Positions, space: &Space, names: &Na
     } else {
         Vec3::ZERO
     };
-    // Follow the drift until it leaves the airspace, if it has bounds.
+    // Follow the drift until a round's leg leaves the airspace, if it has
+    // bounds. The first start kept is that of the round after the ones
+    // the loop's counter still told apart.
+    let done_before = drift.colour.last().copied().unwrap_or(0) as u64;
     let bounded = space.airspace.fence.is_some() || space.airspace.ceiling.is_some();
-    let mut out_after = None;
-    if step.norm() > 0.0 {
-        for k in 0..DRIFT_ROUNDS {
-            let p = first + step * k as f64;
-            if let Some(b) = space.airspace.breach(p + offset, p + offset) {
-                out_after = Some((k, b.point()));
-                break;
-            }
-            if !bounded && k > 0 {
+    let mut out_in = None;
+    if step.norm() > 0.0 && bounded {
+        for i in 0..DRIFT_ROUNDS {
+            let a = first + step * i as f64 + offset;
+            if let Some(b) = space.airspace.breach(a, a + step) {
+                out_in = Some((done_before + i + 1, b.point()));
                 break;
             }
         }
     }
-    let message = match out_after {
-        Some((k, p)) if bounded => format!(
-            "{}: each round of its loop moves {drone} ({:.1}, {:.1}, {:.1}) m further; after {k} round(s) it is out of the airspace at ({:.1}, {:.1}, {:.1})",
+    let far = drift
+        .starts
+        .iter()
+        .map(|s| corner(s).distance(first))
+        .fold(0.0, f64::max);
+    let steady = n >= 3
+        && (step - (corner(&drift.starts[n - 2]) - corner(&drift.starts[n - 3]))).norm() < 1e-6;
+    let how = if steady && step.norm() > 0.0 {
+        format!(
+            "each round of its loop moves {drone} ({:.1}, {:.1}, {:.1}) m further",
+            step.x, step.y, step.z
+        )
+    } else {
+        format!(
+            "the rounds of its loop can take {drone} somewhere new each time ({:.1} m away within {n} rounds)",
+            far
+        )
+    };
+    let message = match out_in {
+        Some((round, p)) if steady => format!(
+            "{}: {how}; in round {round} it leaves the airspace at ({:.1}, {:.1}, {:.1})",
             names.action(&t.action),
-            step.x, step.y, step.z, p.x, p.y, p.z
+            p.x,
+            p.y,
+            p.z
         ),
         _ => format!(
-            "{}: each round of its loop moves {drone} ({:.1}, {:.1}, {:.1}) m further, without bound: it leaves any fence",
-            names.action(&t.action),
-            step.x, step.y, step.z
+            "{}: {how}, without bound: it can leave any fence",
+            names.action(&t.action)
         ),
     };
     Finding {
@@ -153,7 +209,7 @@ fn drift_finding(drift: &Drift, positions: &Positions, space: &Space, names: &Na
                 boxed: false,
                 span: Some(t.span),
             }],
-            closest: out_after.map(|(_, p)| (p, p)),
+            closest: out_in.map(|(_, p)| (p, p)),
             distance: None,
         }),
     }

@@ -33,11 +33,7 @@ pub(crate) fn findings(
     Ok(out)
 }
 
-fn states(
-    net: &Net,
-    profiles: &ProfileTable,
-    names: &Names,
-) -> Result<Vec<Finding>, OutOfBudget> {
+fn states(net: &Net, profiles: &ProfileTable, names: &Names) -> Result<Vec<Finding>, OutOfBudget> {
     let actions = tracked(net, profiles, |sig| sig.flight.is_some());
     let walker = Walker::new(net);
     let mut start_of: HashMap<NodeId, usize> = HashMap::new();
@@ -55,7 +51,10 @@ fn states(
     let drones: std::collections::BTreeSet<u16> = actions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&i| actions[i].drone == d);
-        for (t, _) in walker.walk(walker.initial(), &stop, false, &mut budget)?.stops {
+        for (t, _) in walker
+            .walk(walker.initial(), &stop, false, &|_| false, &mut budget)?
+            .stops
+        {
             work.push((start_of[&t], FlightState::Disarmed, None));
         }
     }
@@ -76,9 +75,12 @@ fn states(
                 continue;
             }
             if !next.contains_key(&(i, cancel)) {
-                let seeds = via.iter().flat_map(|&e| walker.after(e, &[], false)).collect();
+                let seeds = via
+                    .iter()
+                    .flat_map(|&e| walker.after(e, &[], false))
+                    .collect();
                 let list = walker
-                    .walk(seeds, &stop, false, &mut budget)?
+                    .walk(seeds, &stop, false, &|_| false, &mut budget)?
                     .stops
                     .into_iter()
                     .map(|(t, _)| start_of[&t])

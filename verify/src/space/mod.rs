@@ -27,6 +27,7 @@ mod near;
 pub(crate) mod shape;
 pub(crate) mod walk;
 
+pub use eamos_geo::default_home;
 use eamos_geo::{Airspace, Vec3};
 use eamos_lang::Span;
 use eamos_petri::net::{ActionRef, Net};
@@ -58,12 +59,6 @@ impl Space {
             .copied()
             .unwrap_or_else(|| default_home(drone as usize))
     }
-}
-
-/// Where a drone the fleet file does not place starts: the drones of a
-/// mission stand in a row along Y (east), 3 m apart, in declaration order.
-pub fn default_home(index: usize) -> Vec3 {
-    Vec3::new(0.0, 3.0 * index as f64, 0.0)
 }
 
 /// What the spatial properties need from the mission, prepared with the
@@ -104,6 +99,10 @@ impl Names {
             drones: net.drones.clone(),
             lines,
         }
+    }
+
+    pub(crate) fn drones(&self) -> &[String] {
+        &self.drones
     }
 
     pub(crate) fn drone(&self, d: u16) -> String {

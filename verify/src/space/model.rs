@@ -15,14 +15,16 @@ use std::collections::{BTreeSet, HashMap, VecDeque};
 
 use eamos_geo::Vec3;
 use eamos_lang::Span;
-use eamos_petri::net::{ActionRef, Colour, Net, NodeId, PlaceKind, TransitionKind};
-use eamos_profile::{ActionSig, ProfileTable};
+use eamos_petri::net::{ActionRef, Colour, GuardKind, Net, NodeId, PlaceKind, TransitionKind};
+use eamos_profile::{ActionSig, ProfileTable, ValueType};
+
+use crate::conditions::{possibility, Domain, Possibility};
 
 use super::shape::Shape;
 use super::walk::{OutOfBudget, Walker};
 
 /// More distinct starts than this at one step of one round: a drift.
-pub(crate) const MAX_STARTS: usize = 24;
+pub(crate) const MAX_STARTS: usize = 1024;
 
 /// Steps of all walks together before the analysis gives up.
 pub(crate) const WALK_BUDGET: usize = 40_000_000;
@@ -110,6 +112,8 @@ pub(crate) struct Leg {
 #[derive(Debug, Clone)]
 pub(crate) struct Drift {
     pub motion: usize,
+    /// The loop rounds of the step that drifts: empty after the loop.
+    pub colour: Colour,
     /// Its first starts, in the order they were found.
     pub starts: Vec<Shape>,
 }
@@ -154,6 +158,18 @@ impl Positions {
 
 /// Follows every drone's motions from home.
 pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions, OutOfBudget> {
+    // Rounds are told apart up to the explorer's own bound; past it the
+    // legs of a loop are not followed (the check says which loop).
+    let counted_too_far = net.transitions().any(|(_, t)| {
+        matches!(
+            t.guard.as_ref().map(|g| &g.kind),
+            Some(GuardKind::IterationBelow(n)) | Some(GuardKind::IterationAtLeast(n))
+                if *n > crate::mission::MAX_COUNTED_ROUNDS
+        )
+    });
+    if counted_too_far {
+        return Err(OutOfBudget);
+    }
     let motions = tracked(net, profiles, |sig| sig.motion.is_some());
     let walker = Walker::new(net);
     let mut start_of: HashMap<NodeId, usize> = HashMap::new();
@@ -175,19 +191,20 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
     let drones: BTreeSet<u16> = motions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
-        let reach = walker.walk(walker.initial(), &stop, true, &mut budget)?;
+        let home = Shape::point(Vec3::ZERO);
+        let blocked = |t: NodeId| decided_false(net, profiles, t, d, home);
+        let reach = walker.walk(walker.initial(), &stop, true, &blocked, &mut budget)?;
         for (t, c) in reach.stops {
             work.push_back((start_of[&t], c, Shape::point(Vec3::ZERO), Last::Home));
         }
     }
     type Next = Vec<(usize, Colour)>;
-    let mut next: HashMap<(usize, Colour, bool), Next> = HashMap::new();
+    let mut next: HashMap<(usize, Colour, bool, [i64; 7]), Next> = HashMap::new();
     let mut starts: HashMap<(usize, Colour), (BTreeSet<[i64; 7]>, Vec<Shape>)> = HashMap::new();
     let mut ends_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut stops_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut drifting: BTreeSet<(usize, Colour)> = BTreeSet::new();
-    while let Some((m, c, s, from)) = work.pop_front() {
-        out.preds[m].insert(from);
+    while let Some((m, c, s, _)) = work.pop_front() {
         let entry = starts.entry((m, c.clone())).or_default();
         if entry.0.contains(&s.key()) {
             continue;
@@ -196,6 +213,7 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             if drifting.insert((m, c.clone())) {
                 out.drifts.push(Drift {
                     motion: m,
+                    colour: c.clone(),
                     starts: entry.1.clone(),
                 });
             }
@@ -204,9 +222,7 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
         entry.0.insert(s.key());
         entry.1.push(s);
         let t = &motions[m];
-        let (end, sweep) = s
-            .fly(&t.sig, &t.action.args)
-            .unwrap_or((s, s));
+        let (end, sweep) = s.fly(&t.sig, &t.action.args).unwrap_or((s, s));
         out.legs[m].push(Leg {
             sweep,
             colour: c.clone(),
@@ -221,10 +237,15 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             if via.is_empty() {
                 continue;
             }
-            let key = (m, c.clone(), cancel);
+            let at = if cancel { sweep.stopped_on() } else { end };
+            let key = (m, c.clone(), cancel, at.key());
             if !next.contains_key(&key) {
-                let seeds = via.iter().flat_map(|&e| walker.after(e, &c, true)).collect();
-                let reach = walker.walk(seeds, &stop, true, &mut budget)?;
+                let seeds = via
+                    .iter()
+                    .flat_map(|&e| walker.after(e, &c, true))
+                    .collect();
+                let blocked = |t: NodeId| decided_false(net, profiles, t, d, at);
+                let reach = walker.walk(seeds, &stop, true, &blocked, &mut budget)?;
                 let list = reach
                     .stops
                     .into_iter()
@@ -246,6 +267,111 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             }
         }
     }
+    out.preds = preds(net, &walker, &motions, &start_of, &mut budget)?;
     out.motions = motions;
     Ok(out)
+}
+
+/// What each motion can start from, as the checker's exploration sees the
+/// net: every guard may hold or not. (The positions above decide some
+/// guards on where the drone is; the rests the exploration records must
+/// cover every path it can take, or it would find a drone stuck where no
+/// drone is.)
+fn preds(
+    net: &Net,
+    walker: &Walker,
+    motions: &[Tracked],
+    start_of: &HashMap<NodeId, usize>,
+    budget: &mut usize,
+) -> Result<Vec<BTreeSet<Last>>, OutOfBudget> {
+    let _ = net;
+    let mut preds = vec![BTreeSet::new(); motions.len()];
+    let mut seen: BTreeSet<(usize, Colour)> = BTreeSet::new();
+    let mut work: Vec<(usize, Colour)> = Vec::new();
+    let drones: BTreeSet<u16> = motions.iter().map(|t| t.drone).collect();
+    for &d in &drones {
+        let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
+        for (t, c) in walker
+            .walk(walker.initial(), &stop, true, &|_| false, budget)?
+            .stops
+        {
+            preds[start_of[&t]].insert(Last::Home);
+            work.push((start_of[&t], c));
+        }
+    }
+    while let Some((m, c)) = work.pop() {
+        if !seen.insert((m, c.clone())) {
+            continue;
+        }
+        let t = &motions[m];
+        let d = t.drone;
+        let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
+        for (via, last) in [(&t.ends, Last::End(m)), (&t.cancels, Last::Cancel(m))] {
+            if via.is_empty() {
+                continue;
+            }
+            let seeds = via
+                .iter()
+                .flat_map(|&e| walker.after(e, &c, true))
+                .collect();
+            for (t2, c2) in walker.walk(seeds, &stop, true, &|_| false, budget)?.stops {
+                preds[start_of[&t2]].insert(last);
+                work.push((start_of[&t2], c2));
+            }
+        }
+    }
+    Ok(preds)
+}
+
+/// How far from where a leg ends a drone may really stop (the simulator
+/// arrives within 0.3 m; autopilots within their own radius): a guard on
+/// the drone's own position is decided only if it is decided all over
+/// this far around.
+pub(crate) const ARRIVAL: f64 = 0.5;
+
+/// Whether transition `t`, whose guard reads only `drone`'s own state,
+/// cannot fire with the drone resting at `at`.
+fn decided_false(net: &Net, profiles: &ProfileTable, t: NodeId, drone: u16, at: Shape) -> bool {
+    let Some(tr) = net.transition(t) else {
+        return false;
+    };
+    let Some((cond, negated)) = tr.guard.as_ref().and_then(|g| g.condition()) else {
+        return false;
+    };
+    // Wherever it is evaluated, the guard reads the drone between two of
+    // its motions (the walk stops at the next), so where it rests. A drone
+    // flying two legs at once breaks this, and the conflicts say so.
+    if cond.drones().iter().any(|d| d.0 != drone) {
+        return false;
+    }
+    let Shape::Leg(p, q) = at else { return false };
+    if p != q {
+        return false;
+    }
+    let profile = net
+        .profiles
+        .get(drone as usize)
+        .and_then(|name| profiles.get(name));
+    let domain = |d: eamos_lang::hir::DroneId, name: &str| -> Option<Domain> {
+        let v = match name {
+            "X" => p.x,
+            "Y" => p.y,
+            "Z" => p.z,
+            _ => {
+                let sig = profile?.properties.get(name)?;
+                return match sig.ty {
+                    ValueType::Bool => Some(Domain { lo: 0.0, hi: 1.0 }),
+                    ValueType::Number => sig.range.map(|(lo, hi)| Domain { lo, hi }),
+                };
+            }
+        };
+        (d.0 == drone).then_some(Domain {
+            lo: v - ARRIVAL,
+            hi: v + ARRIVAL,
+        })
+    };
+    matches!(
+        (possibility(cond, &domain), negated),
+        (Possibility::NeverHolds, false) | (Possibility::AlwaysHolds, true)
+    )
 }

@@ -129,7 +129,10 @@ pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended
             .iter()
             .filter_map(|l| last_place.get(&(t.drone, *l)).copied())
             .collect();
-        for (list, now) in [(&prep.ends[m], Last::End(m)), (&prep.cancels[m], Last::Cancel(m))] {
+        for (list, now) in [
+            (&prep.ends[m], Last::End(m)),
+            (&prep.cancels[m], Last::Cancel(m)),
+        ] {
             let Some(&to) = last_place.get(&(t.drone, now)) else {
                 continue;
             };
@@ -181,7 +184,12 @@ fn last_id(last: Last) -> String {
 
 /// Every leg and leg, or leg and rest, of two drones that come within the
 /// separation, closest first per pair.
-fn candidates(pos: &Positions, prep: &Prepared, conc: &Concurrency, unordered: &[u16]) -> Vec<Candidate> {
+fn candidates(
+    pos: &Positions,
+    prep: &Prepared,
+    conc: &Concurrency,
+    unordered: &[u16],
+) -> Vec<Candidate> {
     let sep = prep.space.airspace.separation;
     let offset = |d: u16| prep.space.home(d);
     let world = |d: u16, s: Shape| s.at(offset(d));
@@ -189,7 +197,11 @@ fn candidates(pos: &Positions, prep: &Prepared, conc: &Concurrency, unordered: &
         .legs
         .iter()
         .enumerate()
-        .map(|(m, ls)| ls.iter().map(|l| world(pos.motions[m].drone, l.sweep)).collect())
+        .map(|(m, ls)| {
+            ls.iter()
+                .map(|l| world(pos.motions[m].drone, l.sweep))
+                .collect()
+        })
         .collect();
     let leg_bounds: Vec<Option<(Vec3, Vec3)>> = legs.iter().map(|s| bounds(s, sep)).collect();
     let mut rests: Vec<(u16, Last, Vec<Shape>)> = Vec::new();
@@ -267,7 +279,12 @@ fn bounds(shapes: &[Shape], margin: f64) -> Option<(Vec3, Vec3)> {
 }
 
 fn overlap(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
-    a.0.x <= b.1.x && b.0.x <= a.1.x && a.0.y <= b.1.y && b.0.y <= a.1.y && a.0.z <= b.1.z && b.0.z <= a.1.z
+    a.0.x <= b.1.x
+        && b.0.x <= a.1.x
+        && a.0.y <= b.1.y
+        && b.0.y <= a.1.y
+        && a.0.z <= b.1.z
+        && b.0.z <= a.1.z
 }
 
 /// The finding for a candidate the exploration reached, with its trace.
@@ -292,21 +309,38 @@ pub(crate) fn near_findings(
         let (other_drone, other_text, other_span) = match c.other {
             Other::Moving(n) => {
                 let b = &pos.motions[n];
-                (b.drone, format!("{} under way", names.action(&b.action)), Some(b.span))
+                (
+                    b.drone,
+                    format!("{} under way", names.action(&b.action)),
+                    Some(b.span),
+                )
             }
             Other::Resting(d, Last::Home) => (d, format!("{} at home", names.drone(d)), None),
             Other::Resting(d, Last::End(n)) => (
                 d,
-                format!("{} resting where {} ended", names.drone(d), names.action(&pos.motions[n].action)),
+                format!(
+                    "{} resting where {} ended",
+                    names.drone(d),
+                    names.action(&pos.motions[n].action)
+                ),
                 Some(pos.motions[n].span),
             ),
             Other::Resting(d, Last::Cancel(n)) => (
                 d,
-                format!("{} stopped somewhere on {}", names.drone(d), names.action(&pos.motions[n].action)),
+                format!(
+                    "{} stopped somewhere on {}",
+                    names.drone(d),
+                    names.action(&pos.motions[n].action)
+                ),
                 Some(pos.motions[n].span),
             ),
         };
-        let key = (a.span.start, a.span.end, other_span.map(|s| (s.start, s.end)), other_drone);
+        let key = (
+            a.span.start,
+            a.span.end,
+            other_span.map(|s| (s.start, s.end)),
+            other_drone,
+        );
         if !seen.insert(key) {
             continue;
         }
@@ -320,8 +354,13 @@ pub(crate) fn near_findings(
             labels.push(Label {
                 span: s,
                 text: match c.other {
-                    Other::Moving(_) => format!("while {} flies this one", names.drone(other_drone)),
-                    _ => format!("while {} rests where this leg ends", names.drone(other_drone)),
+                    Other::Moving(_) => {
+                        format!("while {} flies this one", names.drone(other_drone))
+                    }
+                    _ => format!(
+                        "while {} rests where this leg ends",
+                        names.drone(other_drone)
+                    ),
                 },
             });
         }

@@ -77,7 +77,10 @@ impl Shape {
                 let (lo, hi) = self.bounds();
                 let (tlo, thi) = (to(lo)?, to(hi)?);
                 let end = Shape::Box(min(tlo, thi), max(tlo, thi));
-                Some((end, Shape::Box(min(lo, min(tlo, thi)), max(hi, max(tlo, thi)))))
+                Some((
+                    end,
+                    Shape::Box(min(lo, min(tlo, thi)), max(hi, max(tlo, thi))),
+                ))
             }
         }
     }
@@ -197,7 +200,10 @@ mod tests {
         let start = Shape::point(Vec3::new(1.0, 2.0, 5.0));
         let (end, leg) = start.fly(&q.actions["FlyByX"], &[3.0]).unwrap();
         assert_eq!(end, Shape::point(Vec3::new(4.0, 2.0, 5.0)));
-        assert_eq!(leg, Shape::Leg(Vec3::new(1.0, 2.0, 5.0), Vec3::new(4.0, 2.0, 5.0)));
+        assert_eq!(
+            leg,
+            Shape::Leg(Vec3::new(1.0, 2.0, 5.0), Vec3::new(4.0, 2.0, 5.0))
+        );
         let (down, _) = end.fly(&q.actions["Land"], &[]).unwrap();
         assert_eq!(down, Shape::point(Vec3::new(4.0, 2.0, 0.0)));
         assert!(start.fly(&q.actions["TakePhoto"], &[]).is_none());
@@ -208,8 +214,14 @@ mod tests {
         let q = quad();
         let stopped = Shape::Leg(Vec3::new(0.0, 0.0, 5.0), Vec3::new(10.0, 0.0, 5.0)).stopped_on();
         let (end, sweep) = stopped.fly(&q.actions["FlyByY"], &[4.0]).unwrap();
-        assert_eq!(end, Shape::Box(Vec3::new(0.0, 4.0, 5.0), Vec3::new(10.0, 4.0, 5.0)));
-        assert_eq!(sweep, Shape::Box(Vec3::new(0.0, 0.0, 5.0), Vec3::new(10.0, 4.0, 5.0)));
+        assert_eq!(
+            end,
+            Shape::Box(Vec3::new(0.0, 4.0, 5.0), Vec3::new(10.0, 4.0, 5.0))
+        );
+        assert_eq!(
+            sweep,
+            Shape::Box(Vec3::new(0.0, 0.0, 5.0), Vec3::new(10.0, 4.0, 5.0))
+        );
     }
 
     #[test]

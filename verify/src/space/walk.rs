@@ -56,6 +56,7 @@ impl<'n> Walker<'n> {
             })
             .max()
             .unwrap_or(0)
+            .min(crate::mission::MAX_COUNTED_ROUNDS)
             + 1;
         let forks: HashMap<(u32, u32), NodeId> = net
             .transitions()
@@ -92,11 +93,14 @@ impl<'n> Walker<'n> {
     /// Walks from `seeds` until `stop` says a transition is a stop. With
     /// `colours` off every token is colourless and colour guards may go
     /// either way (for analyses whose values are few, like flight states).
+    /// A transition `blocked` says cannot fire (its guard cannot hold where
+    /// the drone is) is not passed.
     pub(crate) fn walk(
         &self,
         seeds: Vec<(NodeId, Colour)>,
         stop: &dyn Fn(NodeId) -> bool,
         colours: bool,
+        blocked: &dyn Fn(NodeId) -> bool,
         budget: &mut usize,
     ) -> Result<Reach, OutOfBudget> {
         let mut seen: HashSet<(NodeId, Colour)> = HashSet::new();
@@ -124,12 +128,13 @@ impl<'n> Walker<'n> {
                         continue;
                     }
                     let tr = self.net.transition(t);
+                    let closed = blocked;
                     let blocked = colours
                         && tr
                             .and_then(|t| t.guard.as_ref())
                             .and_then(|g| g.holds_on_colour(&c))
                             == Some(false);
-                    if blocked {
+                    if blocked || closed(t) {
                         continue;
                     }
                     match tr.map(|t| &t.kind) {
