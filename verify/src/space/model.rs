@@ -344,19 +344,18 @@ fn decided_false(net: &Net, profiles: &ProfileTable, t: NodeId, drone: u16, at: 
     if cond.drones().iter().any(|d| d.0 != drone) {
         return false;
     }
-    let Shape::Leg(p, q) = at else { return false };
-    if p != q {
-        return false;
-    }
+    // Where the drone rests: a point, or anywhere in a box after a
+    // cancelled leg.
+    let (p, q) = at.ends();
     let profile = net
         .profiles
         .get(drone as usize)
         .and_then(|name| profiles.get(name));
     let domain = |d: eamos_lang::hir::DroneId, name: &str| -> Option<Domain> {
-        let v = match name {
-            "X" => p.x,
-            "Y" => p.y,
-            "Z" => p.z,
+        let (lo, hi) = match name {
+            "X" => (p.x.min(q.x), p.x.max(q.x)),
+            "Y" => (p.y.min(q.y), p.y.max(q.y)),
+            "Z" => (p.z.min(q.z), p.z.max(q.z)),
             _ => {
                 let sig = profile?.properties.get(name)?;
                 return match sig.ty {
@@ -366,8 +365,8 @@ fn decided_false(net: &Net, profiles: &ProfileTable, t: NodeId, drone: u16, at: 
             }
         };
         (d.0 == drone).then_some(Domain {
-            lo: v - ARRIVAL,
-            hi: v + ARRIVAL,
+            lo: lo - ARRIVAL,
+            hi: hi + ARRIVAL,
         })
     };
     matches!(
