@@ -3,7 +3,10 @@
 //! without the structures that choose between runs (`If`, condition loops,
 //! `Do`): what `eamos check MISSION` does, from the mission's text (front
 //! end, net, then the whole proof: deadlock, termination, safety, dead
-//! actions, conflicts, conditions). The checker stops at
+//! actions, conflicts, conditions, and the spatial properties: separation,
+//! airspace, flight state, with the default fleet); and the stress mission
+//! with the logic alone (`logic_only`), the baseline of what the spatial
+//! properties cost. The checker stops at
 //! `CHECK_MEMORY_MB` (a smaller bound when the benchmarks only run as
 //! tests): an incomplete proof is reported by `eamos bench-report`.
 
@@ -26,12 +29,21 @@ fn check(c: &mut Criterion) {
         },
         ..Options::default()
     };
+    let logic_only = Options {
+        spatial: false,
+        ..options.clone()
+    };
     let mut g = c.benchmark_group("check");
     g.sample_size(10);
-    for (name, spec) in [
-        ("check", workload::SMALL),
-        ("check", workload::STRESS),
-        ("without_choices", workload::STRESS_WITHOUT_CHOICES),
+    for (name, spec, options) in [
+        ("check", workload::SMALL, &options),
+        ("check", workload::STRESS, &options),
+        ("logic_only", workload::STRESS, &logic_only),
+        (
+            "without_choices",
+            workload::STRESS_WITHOUT_CHOICES,
+            &options,
+        ),
     ] {
         let source = SourceFile::new(spec.file_name(), spec.text());
         g.bench_with_input(BenchmarkId::new(name, spec.nodes), &source, |b, s| {
@@ -39,7 +51,7 @@ fn check(c: &mut Criterion) {
                 let mission =
                     workload::front_end(s, &profiles).expect("generated missions compile");
                 let net = eamos_petri::compile(&mission, &profiles);
-                check_net(&net, &profiles, Some(&s.text), &options)
+                check_net(&net, &profiles, Some(&s.text), options)
             })
         });
     }

@@ -131,7 +131,7 @@ fn check_of_a_billion_rounds_says_at_once_that_they_are_too_many_and_exits_3() {
     let m = write(
         &dir,
         "billion.go",
-        "package Billion\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Takeoff(1)\n\tRepeatFor(1000000000, SEQ_Hop)\n\tD1.Land()\n}\n\nfunc SEQ_Hop() {\n\tD1.FlyByX(1)\n}\n",
+        "package Billion\n\nvar D1 Quadcopter\n\nfunc INIT() {\n\tD1.Arm()\n\tD1.Takeoff(1)\n\tRepeatFor(1000000000, SEQ_Hop)\n\tD1.Land()\n}\n\nfunc SEQ_Hop() {\n\tD1.FlyByX(1)\n}\n",
     );
     let limit = std::time::Duration::from_secs(60);
     eamos().arg("build").arg(&m).timeout(limit).assert().code(0);
@@ -143,7 +143,7 @@ fn check_of_a_billion_rounds_says_at_once_that_they_are_too_many_and_exits_3() {
         .assert()
         .code(3)
         .stdout(predicate::str::contains("eamos::too-large-to-explore"))
-        .stdout(predicate::str::contains("billion.go:7:12"))
+        .stdout(predicate::str::contains("billion.go:8:12"))
         .stdout(predicate::str::contains("1000000000 rounds"))
         .stdout(predicate::str::contains("nothing found, but not proved"));
 }

@@ -195,7 +195,9 @@ fn the_one_process_fleet_runs_over_zenoh_on_loopback_too() {
 }
 
 #[test]
-fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_what_waited() {
+fn experiment_d_is_refused_for_its_findings_and_says_which() {
+    // D1 and D2 move 20 cm every time the pilot hovers D3 over a square,
+    // for as long as D3 stays in the field: nothing bounds how far they go.
     let dir = tempfile::tempdir().unwrap();
     let out = Command::cargo_bin("eamos")
         .unwrap()
@@ -204,6 +206,29 @@ fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_
         .arg("--fleet")
         .arg(example("experiment_d_fleet.toml"))
         .args(["--max-duration", "120", "--out"])
+        .arg(dir.path())
+        .env("NO_COLOR", "1")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("eamos::drift"), "{stderr}");
+    assert!(stderr.contains("not flying it"), "{stderr}");
+    assert!(stderr.contains("--allow-findings"), "{stderr}");
+    // Nothing flew: no drone wrote a log.
+    assert!(std::fs::read_dir(dir.path()).map_or(true, |d| d.count() == 0));
+}
+
+#[test]
+fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_what_waited() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("run")
+        .arg(paper("experiment_d.go"))
+        .arg("--fleet")
+        .arg(example("experiment_d_fleet.toml"))
+        .args(["--allow-findings", "--max-duration", "120", "--out"])
         .arg(dir.path())
         .output()
         .unwrap();

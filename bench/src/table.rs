@@ -29,6 +29,8 @@ mod goal {
     pub const GROWTH_EXPONENT: f64 = 1.15;
     pub const START_STRESS_MS: f64 = 10.0;
     pub const CHECK_STRESS_MS: f64 = 1_000.0;
+    /// The spatial properties may at most double the check.
+    pub const SPATIAL_FACTOR: f64 = 2.0;
     pub const BRIDGE_RATIO: f64 = 1.5;
 }
 
@@ -442,6 +444,38 @@ pub fn table(m: &Measured) -> String {
             ),
         );
     }
+
+    // What the spatial properties cost: the whole check against the same
+    // check with the logic alone, in the same run.
+    let whole = r.ns(&format!("check/check/{}", STRESS.nodes));
+    let logic = r.ns(&format!("check/logic_only/{}", STRESS.nodes));
+    rows.push(
+        row(
+            format!(
+                "`eamos check`, {}-node mission, {} drones: every property including separation, airspace and flight state, against the logic alone",
+                STRESS.nodes, STRESS.drones
+            ),
+            format!(
+                "{}{}",
+                time(whole),
+                whole
+                    .zip(logic)
+                    .map_or(String::new(), |(w, l)| format!(" ({:.2}x)", w / l))
+            ),
+        )
+        .paper("– (no checker)")
+        .baseline(format!("{} (logic alone)", time(logic)))
+        .goal(
+            format!(
+                "≤ {}x the logic alone, ≤ {} s",
+                goal::SPATIAL_FACTOR,
+                goal::CHECK_STRESS_MS / 1e3
+            ),
+            whole.zip(logic).map(|(w, l)| {
+                w <= goal::SPATIAL_FACTOR * l && w <= goal::CHECK_STRESS_MS * 1e6
+            }),
+        ),
+    );
 
     let firings = r
         .ns("executor/firings/1000")

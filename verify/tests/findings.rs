@@ -285,7 +285,17 @@ fn a_loop_with_an_exit_terminates_with_a_note_that_it_may_repeat() {
     let l = b.action(exit, 0, "Land", &[], "D1.Land()", 0);
     b.finish(l);
     let r = check(&b);
-    assert!(r.findings.is_empty(), "{:#?}", r.findings);
+    // Nothing wrong with its logic. In space, each round takes D1 a metre
+    // further for as long as the battery lasts, and it takes off (and
+    // flies) without having armed.
+    assert!(
+        r.findings
+            .iter()
+            .all(|f| matches!(f.kind, FindingKind::Drift | FindingKind::FlightState)),
+        "{:#?}",
+        r.findings
+    );
+    assert_eq!(r.findings_of(FindingKind::Drift).count(), 1);
     let term = r
         .properties
         .iter()

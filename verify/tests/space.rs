@@ -301,3 +301,20 @@ fn the_spatial_properties_are_named_so_in_json() {
     assert_eq!(f["property"], "separation");
     assert_eq!(f["geometry"]["legs"].as_array().unwrap().len(), 2);
 }
+
+#[test]
+fn a_loop_that_ends_on_the_drones_own_height_is_followed_until_it_ends() {
+    // Up to 10 m, and half a metre more for where a drone really stops.
+    let capped = |ceiling: f64| Airspace {
+        ceiling: Some(ceiling),
+        ..Airspace::default()
+    };
+    let (r, ..) = check_in("climb.go", capped(11.0));
+    assert!(r.findings.is_empty(), "{:#?}", r.findings);
+    assert_eq!(verdict(&r, Property::Airspace), Verdict::Holds);
+    assert_eq!(verdict(&r, Property::Separation), Verdict::Holds);
+    // A ceiling at the height the loop aims for is too low for that margin.
+    let (r, ..) = check_in("climb.go", capped(10.0));
+    let f = only(&r, FindingKind::LeavesAirspace);
+    assert!(f.message.contains("10.5 m"), "{}", f.message);
+}

@@ -37,6 +37,7 @@ pub(crate) fn findings(positions: &Positions, space: &Space, names: &Names) -> V
         }
     }
     let mut seen = std::collections::BTreeSet::new();
+    let mut out_of = std::collections::BTreeSet::new();
     for (m, legs) in positions.legs.iter().enumerate() {
         let t = &positions.motions[m];
         let home = space.home(t.drone);
@@ -54,7 +55,20 @@ pub(crate) fn findings(positions: &Positions, space: &Space, names: &Names) -> V
             if !seen.insert((t.span.start, t.span.end)) {
                 break;
             }
-            out.push(breach_finding(t, leg, sweep, breach, space, names));
+            // The first way out of each drone is the finding; fixed, the
+            // next check shows the next.
+            if !out_of.insert(t.drone) {
+                break;
+            }
+            out.push(breach_finding(
+                t,
+                leg,
+                sweep,
+                breach,
+                space,
+                names,
+                positions.exact_rounds,
+            ));
             break;
         }
     }
@@ -78,6 +92,7 @@ fn breach_finding(
     breach: Breach,
     space: &Space,
     names: &Names,
+    exact_rounds: u32,
 ) -> Finding {
     let drone = names.drone(t.drone);
     let p = breach.point();
@@ -95,7 +110,8 @@ fn breach_finding(
         ),
     };
     let round = match leg.colour.last() {
-        Some(k) => format!(" in round {} of its loop", k + 1),
+        Some(k) if *k < exact_rounds => format!(" in round {} of its loop", k + 1),
+        Some(k) => format!(" in round {} or later of its loop", k + 1),
         None => String::new(),
     };
     let (from, to) = sweep.ends();

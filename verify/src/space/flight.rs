@@ -46,13 +46,21 @@ fn states(net: &Net, profiles: &ProfileTable, names: &Names) -> Result<Vec<Findi
     // (action, state it starts in) -> the pair before it, if any.
     let mut came_from: BTreeMap<(usize, FlightState), Option<(usize, FlightState)>> =
         BTreeMap::new();
-    let mut work: Vec<(usize, FlightState, Option<(usize, FlightState)>)> = Vec::new();
+    type Step = (usize, FlightState);
+    let mut work: Vec<(usize, FlightState, Option<Step>)> = Vec::new();
     let mut next: HashMap<(usize, bool), Vec<usize>> = HashMap::new();
     let drones: std::collections::BTreeSet<u16> = actions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&i| actions[i].drone == d);
         for (t, _) in walker
-            .walk(walker.initial(), &stop, false, &|_| false, &mut budget)?
+            .walk(
+                walker.initial(),
+                &stop,
+                false,
+                &|_| false,
+                None,
+                &mut budget,
+            )?
             .stops
         {
             work.push((start_of[&t], FlightState::Disarmed, None));
@@ -74,18 +82,14 @@ fn states(net: &Net, profiles: &ProfileTable, names: &Names) -> Result<Vec<Findi
             if via.is_empty() {
                 continue;
             }
-            if !next.contains_key(&(i, cancel)) {
-                let seeds = via
-                    .iter()
-                    .flat_map(|&e| walker.after(e, &[], false))
-                    .collect();
+            if let std::collections::hash_map::Entry::Vacant(e) = next.entry((i, cancel)) {
                 let list = walker
-                    .walk(seeds, &stop, false, &|_| false, &mut budget)?
+                    .walk_after(via, &[], cancel, &stop, false, &|_| false, &mut budget)?
                     .stops
                     .into_iter()
                     .map(|(t, _)| start_of[&t])
                     .collect();
-                next.insert((i, cancel), list);
+                e.insert(list);
             }
             // A cancelled action may have done its part or not.
             let states: &[FlightState] = if cancel { &[s, after] } else { &[after] };
@@ -98,7 +102,7 @@ fn states(net: &Net, profiles: &ProfileTable, names: &Names) -> Result<Vec<Findi
     }
     let mut out = Vec::new();
     let mut reported: std::collections::BTreeSet<(u32, u32, FlightState)> = Default::default();
-    for (&(i, s), _) in &came_from {
+    for &(i, s) in came_from.keys() {
         let a = &actions[i];
         if a.sig.may_start_in(s) || !reported.insert((a.span.start, a.span.end, s)) {
             continue;

@@ -129,6 +129,8 @@ pub(crate) struct Positions {
     /// Per motion: what the drone can rest at just before it starts.
     pub preds: Vec<BTreeSet<Last>>,
     pub drifts: Vec<Drift>,
+    /// Loop rounds below this are told apart; at it, they are not.
+    pub exact_rounds: u32,
 }
 
 impl Positions {
@@ -193,14 +195,15 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
         let home = Shape::point(Vec3::ZERO);
         let blocked = |t: NodeId| decided_false(net, profiles, t, d, home);
-        let reach = walker.walk(walker.initial(), &stop, true, &blocked, &mut budget)?;
+        let reach = walker.walk(walker.initial(), &stop, true, &blocked, None, &mut budget)?;
         for (t, c) in reach.stops {
             work.push_back((start_of[&t], c, Shape::point(Vec3::ZERO), Last::Home));
         }
     }
     type Next = Vec<(usize, Colour)>;
     let mut next: HashMap<(usize, Colour, bool, [i64; 7]), Next> = HashMap::new();
-    let mut starts: HashMap<(usize, Colour), (BTreeSet<[i64; 7]>, Vec<Shape>)> = HashMap::new();
+    type Starts = (BTreeSet<[i64; 7]>, Vec<Shape>);
+    let mut starts: HashMap<(usize, Colour), Starts> = HashMap::new();
     let mut ends_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut stops_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut drifting: BTreeSet<(usize, Colour)> = BTreeSet::new();
@@ -240,12 +243,9 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             let at = if cancel { sweep.stopped_on() } else { end };
             let key = (m, c.clone(), cancel, at.key());
             if !next.contains_key(&key) {
-                let seeds = via
-                    .iter()
-                    .flat_map(|&e| walker.after(e, &c, true))
-                    .collect();
                 let blocked = |t: NodeId| decided_false(net, profiles, t, d, at);
-                let reach = walker.walk(seeds, &stop, true, &blocked, &mut budget)?;
+                let reach =
+                    walker.walk_after(via, &c, cancel, &stop, true, &blocked, &mut budget)?;
                 let list = reach
                     .stops
                     .into_iter()
@@ -268,6 +268,7 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
         }
     }
     out.preds = preds(net, &walker, &motions, &start_of, &mut budget)?;
+    out.exact_rounds = walker.cap();
     out.motions = motions;
     Ok(out)
 }
@@ -292,7 +293,7 @@ fn preds(
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
         for (t, c) in walker
-            .walk(walker.initial(), &stop, true, &|_| false, budget)?
+            .walk(walker.initial(), &stop, true, &|_| false, None, budget)?
             .stops
         {
             preds[start_of[&t]].insert(Last::Home);
@@ -306,15 +307,15 @@ fn preds(
         let t = &motions[m];
         let d = t.drone;
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
-        for (via, last) in [(&t.ends, Last::End(m)), (&t.cancels, Last::Cancel(m))] {
+        for (via, last, cancel) in [
+            (&t.ends, Last::End(m), false),
+            (&t.cancels, Last::Cancel(m), true),
+        ] {
             if via.is_empty() {
                 continue;
             }
-            let seeds = via
-                .iter()
-                .flat_map(|&e| walker.after(e, &c, true))
-                .collect();
-            for (t2, c2) in walker.walk(seeds, &stop, true, &|_| false, budget)?.stops {
+            let reach = walker.walk_after(via, &c, cancel, &stop, true, &|_| false, budget)?;
+            for (t2, c2) in reach.stops {
                 preds[start_of[&t2]].insert(last);
                 work.push((start_of[&t2], c2));
             }

@@ -302,7 +302,8 @@ pub(crate) fn near_findings(
     let mut seen = BTreeSet::new();
     // One finding per two drones: the legs both under way first, then the
     // closest; the other places they can meet are listed in its notes.
-    let mut by_pair: BTreeMap<(u16, u16), Vec<(bool, Finding, String)>> = BTreeMap::new();
+    type Found = (bool, Finding, String);
+    let mut by_pair: BTreeMap<(u16, u16), Vec<Found>> = BTreeMap::new();
     for &(state, i) in hits {
         let c = &ext.candidates[i];
         let a = &pos.motions[c.motion];

@@ -71,6 +71,11 @@ impl<'n> Walker<'n> {
         Walker { net, cap, fork_of }
     }
 
+    /// Loop counters below this are exact; at it, any count from it up.
+    pub(crate) fn cap(&self) -> u32 {
+        self.cap
+    }
+
     /// The places a drone's control flow can be in at the start.
     pub(crate) fn initial(&self) -> Vec<(NodeId, Colour)> {
         self.net
@@ -94,28 +99,32 @@ impl<'n> Walker<'n> {
     /// `colours` off every token is colourless and colour guards may go
     /// either way (for analyses whose values are few, like flight states).
     /// A transition `blocked` says cannot fire (its guard cannot hold where
-    /// the drone is) is not passed.
+    /// the drone is) is not passed. `cut`: the seeds follow a cancel in
+    /// this `Do` region, whose body is then skipped (its steps that need
+    /// the region live cannot fire) until the region starts again.
     pub(crate) fn walk(
         &self,
         seeds: Vec<(NodeId, Colour)>,
         stop: &dyn Fn(NodeId) -> bool,
         colours: bool,
         blocked: &dyn Fn(NodeId) -> bool,
+        cut: Option<u32>,
         budget: &mut usize,
     ) -> Result<Reach, OutOfBudget> {
-        let mut seen: HashSet<(NodeId, Colour)> = HashSet::new();
+        type Token = (NodeId, Colour, Option<u32>);
+        let mut seen: HashSet<Token> = HashSet::new();
         let mut visited: HashSet<NodeId> = HashSet::new();
         let mut crossed: HashSet<NodeId> = HashSet::new();
-        let mut waiting: Vec<(NodeId, Colour)> = Vec::new();
+        let mut waiting: Vec<(NodeId, Colour, Option<u32>)> = Vec::new();
         let mut stops: HashSet<(NodeId, Colour)> = HashSet::new();
         let mut reach = Reach::default();
-        let mut stack: Vec<(NodeId, Colour)> = seeds
+        let mut stack: Vec<Token> = seeds
             .into_iter()
-            .map(|(p, c)| (p, self.colour(c, colours)))
+            .map(|(p, c)| (p, self.colour(c, colours), cut))
             .collect();
         loop {
-            while let Some((p, c)) = stack.pop() {
-                if !seen.insert((p, c.clone())) {
+            while let Some((p, c, cut)) = stack.pop() {
+                if !seen.insert((p, c.clone(), cut)) {
                     continue;
                 }
                 visited.insert(p);
@@ -128,13 +137,12 @@ impl<'n> Walker<'n> {
                         continue;
                     }
                     let tr = self.net.transition(t);
-                    let closed = blocked;
-                    let blocked = colours
+                    let colour_says_no = colours
                         && tr
                             .and_then(|t| t.guard.as_ref())
                             .and_then(|g| g.holds_on_colour(&c))
                             == Some(false);
-                    if blocked || closed(t) {
+                    if colour_says_no || blocked(t) || cut.is_some_and(|r| self.needs_live(t, r)) {
                         continue;
                     }
                     match tr.map(|t| &t.kind) {
@@ -144,17 +152,22 @@ impl<'n> Walker<'n> {
                         Some(TransitionKind::Join)
                             if self.fork_of.get(&t).is_some_and(|f| crossed.contains(f)) =>
                         {
-                            waiting.push((t, c.clone()));
+                            waiting.push((t, c.clone(), cut));
                             continue;
                         }
                         _ => {}
                     }
-                    stack.extend(self.after(t, &c, colours));
+                    let cut = cut.filter(|&r| !self.starts_region(t, r));
+                    stack.extend(
+                        self.after(t, &c, colours)
+                            .into_iter()
+                            .map(|(q, c)| (q, c, cut)),
+                    );
                 }
             }
             // Joins whose block the walk opened go on once every branch
             // of it has come to its end.
-            let (ready, still): (Vec<_>, Vec<_>) = waiting.drain(..).partition(|(t, _)| {
+            let (ready, still): (Vec<_>, Vec<_>) = waiting.drain(..).partition(|(t, _, _)| {
                 self.net
                     .preset(*t)
                     .filter(|&q| self.followed(q))
@@ -164,11 +177,76 @@ impl<'n> Walker<'n> {
             if ready.is_empty() {
                 break;
             }
-            for (t, c) in ready {
-                stack.extend(self.after(t, &c, colours));
+            for (t, c, cut) in ready {
+                stack.extend(
+                    self.after(t, &c, colours)
+                        .into_iter()
+                        .map(|(q, c)| (q, c, cut)),
+                );
             }
         }
         Ok(reach)
+    }
+
+    /// Walks on from where the transitions `via` (the ends of one action,
+    /// or its cancels) put the token of colour `c`; after a cancel, the
+    /// rest of its `Do` body is skipped.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn walk_after(
+        &self,
+        via: &[NodeId],
+        c: &[u32],
+        cancel: bool,
+        stop: &dyn Fn(NodeId) -> bool,
+        colours: bool,
+        blocked: &dyn Fn(NodeId) -> bool,
+        budget: &mut usize,
+    ) -> Result<Reach, OutOfBudget> {
+        let mut reach = Reach::default();
+        for &e in via {
+            let cut = if cancel { self.region_of(e) } else { None };
+            let seeds = self.after(e, c, colours);
+            for stop in self.walk(seeds, stop, colours, blocked, cut, budget)?.stops {
+                if !reach.stops.contains(&stop) {
+                    reach.stops.push(stop);
+                }
+            }
+        }
+        Ok(reach)
+    }
+
+    /// The `Do` region a cancel transition cancels in.
+    pub(crate) fn region_of(&self, cancel: NodeId) -> Option<u32> {
+        self.net
+            .read_set(cancel)
+            .chain(self.net.preset(cancel))
+            .find_map(|p| match self.net.place(p).map(|p| &p.kind) {
+                Some(PlaceKind::Region {
+                    region,
+                    interrupted: true,
+                }) => Some(*region),
+                _ => None,
+            })
+    }
+
+    /// Whether `t` needs region `r` live (an observable step of its body).
+    fn needs_live(&self, t: NodeId, r: u32) -> bool {
+        self.net.read_set(t).chain(self.net.preset(t)).any(|p| {
+            matches!(
+                self.net.place(p).map(|p| &p.kind),
+                Some(PlaceKind::Region { region, interrupted: false }) if *region == r
+            )
+        })
+    }
+
+    /// Whether `t` starts region `r` afresh (its `do_start`).
+    fn starts_region(&self, t: NodeId, r: u32) -> bool {
+        self.net.postset(t).any(|(p, _)| {
+            matches!(
+                self.net.place(p).map(|p| &p.kind),
+                Some(PlaceKind::Region { region, interrupted: false }) if *region == r
+            )
+        })
     }
 
     /// Places a drone's control flow passes through: not the records of
