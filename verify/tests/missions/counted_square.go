@@ -11,7 +11,17 @@ func SEQ_Main() {
 }
 
 func PAR_Up() {
+	SEQ_Up1()
+	SEQ_Up2()
+}
+
+func SEQ_Up1() {
+	D1.Arm()
 	D1.Takeoff(1)
+}
+
+func SEQ_Up2() {
+	D2.Arm()
 	D2.Takeoff(1)
 }
 

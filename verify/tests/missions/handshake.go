@@ -10,6 +10,7 @@ func PAR_Main() {
 }
 
 func SEQ_One() {
+	D1.Arm()
 	D1.Takeoff(1)
 	Signal("up")
 	Await("photo")
@@ -18,6 +19,7 @@ func SEQ_One() {
 
 func SEQ_Two() {
 	Await("up")
+	D2.Arm()
 	D2.Takeoff(1)
 	D2.TakePhoto()
 	Signal("photo")
