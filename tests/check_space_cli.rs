@@ -91,6 +91,19 @@ fn a_leg_out_of_the_fence_is_found_drawn_and_refused_for_flight() {
         .stderr(predicate::str::contains("eamos::leaves-airspace"))
         .stderr(predicate::str::contains("not flying it"));
     assert!(!out.join("Scout.jsonl").exists());
+
+    // Nor does `deploy`: it refuses before it sends any drone its slice.
+    eamos()
+        .arg("deploy")
+        .arg(repo("examples/survey.go"))
+        .arg("--fleet")
+        .arg(&fleet)
+        .env("NO_COLOR", "1")
+        .timeout(std::time::Duration::from_secs(60))
+        .assert()
+        .code(1)
+        .stderr(predicate::str::contains("eamos::leaves-airspace"))
+        .stderr(predicate::str::contains("--allow-findings"));
 }
 
 #[test]

@@ -40,15 +40,19 @@ pub fn svg(report: &Report, space: &Space, drones: &[String]) -> String {
     if points.is_empty() {
         (lo_x, hi_x, lo_y, hi_y) = (-1.0, 1.0, -1.0, 1.0);
     }
-    let span = (hi_x - lo_x).max(hi_y - lo_y).max(1.0);
+    // At least 10 m across, the drawing centred on what it shows.
+    let span = (hi_x - lo_x).max(hi_y - lo_y).max(10.0);
     let scale = (SIZE - 2.0 * MARGIN) / span;
+    let (mid_x, mid_y) = ((lo_x + hi_x) / 2.0, (lo_y + hi_y) / 2.0);
     // North (x) up, east (y) right.
     let at = |x: f64, y: f64| {
         (
-            MARGIN + (y - lo_y) * scale,
-            SIZE - MARGIN - (x - lo_x) * scale,
+            SIZE / 2.0 + (y - mid_y) * scale,
+            SIZE / 2.0 - (x - mid_x) * scale,
         )
     };
+    // Labels on the right half are written leftwards, to stay in the page.
+    let anchor = |a: f64| if a > SIZE / 2.0 { "end" } else { "start" };
     let colour = |name: &str| {
         let i = drones.iter().position(|d| d == name).unwrap_or(0);
         COLOURS[i % COLOURS.len()]
@@ -85,17 +89,18 @@ pub fn svg(report: &Report, space: &Space, drones: &[String]) -> String {
         let name = drones.get(i).map_or("", String::as_str);
         let _ = writeln!(
             out,
-            r#"<g class="home"><rect x="{:.1}" y="{:.1}" width="8" height="8" fill="{c}"/><text x="{:.1}" y="{:.1}">{} home</text></g>"#,
+            r#"<g class="home"><rect x="{:.1}" y="{:.1}" width="8" height="8" fill="{c}"/><text x="{:.1}" y="{:.1}" text-anchor="{}">{} home</text></g>"#,
             a - 4.0,
             b - 4.0,
-            a + 6.0,
+            if a > SIZE / 2.0 { a - 6.0 } else { a + 6.0 },
             b + 14.0,
+            anchor(a),
             xml(name),
             c = colour(name)
         );
     }
     for (n, (f, g)) in findings.iter().enumerate() {
-        for l in &g.legs {
+        for (k, l) in g.legs.iter().enumerate() {
             let (a, b) = at(l.from.x, l.from.y);
             let (c, d) = at(l.to.x, l.to.y);
             let col = colour(&l.drone);
@@ -111,8 +116,16 @@ pub fn svg(report: &Report, space: &Space, drones: &[String]) -> String {
             } else {
                 let _ = writeln!(
                     out,
-                    r#"<line class="leg" x1="{a:.1}" y1="{b:.1}" x2="{c:.1}" y2="{d:.1}" stroke="{col}" stroke-width="3"><title>{}</title></line>"#,
-                    xml(&l.drone)
+                    r#"<line class="leg" x1="{a:.1}" y1="{b:.1}" x2="{c:.1}" y2="{d:.1}" stroke="{col}" stroke-width="{w}"{dash}><title>{}</title></line><circle cx="{c:.1}" cy="{d:.1}" r="3" fill="{col}"/>"#,
+                    xml(&l.drone),
+                    // The second leg of a pair thinner and dashed: two legs
+                    // on one line stay visible.
+                    w = if k == 0 { 5 } else { 2 },
+                    dash = if k == 0 {
+                        ""
+                    } else {
+                        r#" stroke-dasharray="8 4""#
+                    },
                 );
             }
         }
