@@ -84,21 +84,15 @@ pub fn run(args: Args) -> ExitCode {
             return bad_input(&format!("--max-duration must be above zero, not {d}"));
         }
     }
-    let loaded = match mission::load(
+    let loaded = match mission::load_to_fly(
         &args.mission,
         args.fleet.as_deref(),
         std::io::stderr().is_terminal(),
+        args.allow_findings,
     ) {
         Ok(m) => m,
         Err(status) => return status,
     };
-    if let Err(status) = mission::preflight(
-        &loaded,
-        args.allow_findings,
-        std::io::stderr().is_terminal(),
-    ) {
-        return status;
-    }
     let Mission {
         source,
         profiles,

@@ -72,6 +72,19 @@ pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
     }
 }
 
+/// [`load`], then [`preflight`]: what `run` and `deploy` read before they
+/// fly anything.
+pub fn load_to_fly(
+    mission: &Path,
+    fleet: Option<&Path>,
+    colour: bool,
+    allow_findings: bool,
+) -> Result<Mission, ExitCode> {
+    let loaded = load(mission, fleet, colour)?;
+    preflight(&loaded, allow_findings, colour)?;
+    Ok(loaded)
+}
+
 /// Checks the mission with its fleet before it flies. An error finding
 /// (a deadlock, two drones that can meet, a leg out of the airspace, a
 /// motion before take-off...) stops it, unless the user said

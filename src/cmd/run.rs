@@ -102,21 +102,15 @@ pub fn run(args: Args) -> ExitCode {
     if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
         return bad_input("--startup-timeout must be zero or more seconds");
     }
-    let loaded = match mission::load(
+    let loaded = match mission::load_to_fly(
         &args.mission,
         args.fleet.as_deref(),
         std::io::stderr().is_terminal(),
+        args.allow_findings,
     ) {
         Ok(m) => m,
         Err(status) => return status,
     };
-    if let Err(status) = mission::preflight(
-        &loaded,
-        args.allow_findings,
-        std::io::stderr().is_terminal(),
-    ) {
-        return status;
-    }
     let Mission {
         source,
         profiles,

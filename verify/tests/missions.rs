@@ -4,6 +4,8 @@
 //! counterexample is replayed in the reference token game, its guards
 //! answered as the counterexample says, and must reach the marking reported.
 
+mod common;
+
 use std::path::PathBuf;
 
 use eamos_lang::SourceFile;
@@ -16,17 +18,7 @@ fn dir() -> PathBuf {
 }
 
 fn compile(path: PathBuf) -> (Net, SourceFile) {
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let name = path.file_name().unwrap().to_string_lossy().into_owned();
-    let file = SourceFile::new(name, text);
-    let profiles = eamos_profile::builtin();
-    let compiled = eamos_lang::compile(&file, &profiles).unwrap_or_else(|d| {
-        panic!(
-            "{}",
-            eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN)
-        )
-    });
-    (eamos_petri::compile(&compiled.mission, &profiles), file)
+    common::compile_file(&path)
 }
 
 fn check_file(path: PathBuf) -> (Report, Net, SourceFile) {

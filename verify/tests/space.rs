@@ -17,19 +17,11 @@ use eamos_verify::{
 };
 
 fn compile(name: &str) -> (Net, SourceFile) {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/space")
-        .join(name);
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let file = SourceFile::new(name.to_string(), text);
-    let profiles = eamos_profile::builtin();
-    let compiled = eamos_lang::compile(&file, &profiles).unwrap_or_else(|d| {
-        panic!(
-            "{}",
-            eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN)
-        )
-    });
-    (eamos_petri::compile(&compiled.mission, &profiles), file)
+    common::compile_file(
+        &PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/space")
+            .join(name),
+    )
 }
 
 /// Checks `name` in `airspace` (the default fleet's homes).

@@ -349,3 +349,23 @@ pub fn is_dead(net: &Net, marking: &[(String, u32)]) -> bool {
                 .any(|e| tokens(e.source()) < e.weight().weight)
     })
 }
+
+/// A mission file compiled by the real front end and net compiler with the
+/// built-in profiles; a mission that does not compile fails the test with
+/// its diagnostics.
+pub fn compile_file(path: &std::path::Path) -> (Net, eamos_lang::SourceFile) {
+    let text =
+        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let name = path
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let file = eamos_lang::SourceFile::new(name, text);
+    let profiles = eamos_profile::builtin();
+    let compiled = eamos_lang::compile(&file, &profiles).unwrap_or_else(|d| {
+        panic!(
+            "{}",
+            eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN)
+        )
+    });
+    (eamos_petri::compile(&compiled.mission, &profiles), file)
+}
