@@ -354,8 +354,7 @@ pub fn is_dead(net: &Net, marking: &[(String, u32)]) -> bool {
 /// built-in profiles; a mission that does not compile fails the test with
 /// its diagnostics.
 pub fn compile_file(path: &std::path::Path) -> (Net, eamos_lang::SourceFile) {
-    let text =
-        std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let name = path
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
