@@ -25,6 +25,7 @@ pub(crate) mod flight;
 pub(crate) mod model;
 mod near;
 pub(crate) mod shape;
+mod too_close;
 pub(crate) mod walk;
 
 pub use eamos_geo::default_home;
@@ -32,7 +33,8 @@ use eamos_geo::{Airspace, Vec3};
 use eamos_lang::Span;
 use eamos_petri::net::{ActionRef, Net};
 
-pub(crate) use near::{extend, homes_findings, near_findings, MAX_WATCHED};
+pub(crate) use near::{extend, MAX_WATCHED};
+pub(crate) use too_close::{homes_findings, near_findings};
 
 /// Where the fleet flies: each drone's home in the fleet frame (in the
 /// order of the mission's drones) and the airspace.

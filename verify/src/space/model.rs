@@ -267,7 +267,7 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             }
         }
     }
-    out.preds = preds(net, &walker, &motions, &start_of, &mut budget)?;
+    out.preds = preds(&walker, &motions, &start_of, &mut budget)?;
     out.exact_rounds = walker.cap();
     out.motions = motions;
     Ok(out)
@@ -279,13 +279,11 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
 /// cover every path it can take, or it would find a drone stuck where no
 /// drone is.)
 fn preds(
-    net: &Net,
     walker: &Walker,
     motions: &[Tracked],
     start_of: &HashMap<NodeId, usize>,
     budget: &mut usize,
 ) -> Result<Vec<BTreeSet<Last>>, OutOfBudget> {
-    let _ = net;
     let mut preds = vec![BTreeSet::new(); motions.len()];
     let mut seen: BTreeSet<(usize, Colour)> = BTreeSet::new();
     let mut work: Vec<(usize, Colour)> = Vec::new();
