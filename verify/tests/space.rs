@@ -310,3 +310,12 @@ fn a_loop_that_ends_on_the_drones_own_height_is_followed_until_it_ends() {
     let f = only(&r, FindingKind::LeavesAirspace);
     assert!(f.message.contains("10.5 m"), "{}", f.message);
 }
+
+#[test]
+fn a_climbing_leg_is_any_of_its_heights_along_its_line() {
+    let (r, _, file) = check("bow.go");
+    let f = only(&r, FindingKind::TooClose);
+    // D1's climb north (line 21) while D2 rests where its leg ended (31).
+    assert_eq!(lines(f, &file), vec![21, 31], "{}", f.message);
+    assert!(f.message.contains("0.00 m"), "{}", f.message);
+}

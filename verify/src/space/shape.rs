@@ -96,38 +96,46 @@ impl Shape {
         }
     }
 
-    /// The closest approach of two shapes (boxes are compared through
-    /// their bounds: never farther than the truth).
+    /// The closest approach of two shapes, never farther than the truth.
+    ///
+    /// A leg is compared as the upright strip above and below its line seen
+    /// from above, between its two ends' heights: a multirotor holds the
+    /// line seen from above, but climbs and travels each at its own rate,
+    /// so its height along the way is anywhere between the two (the
+    /// simulator reaches the end of a diagonal climb up to 2.3 m off the
+    /// straight segment). Two such strips are a line times an interval each,
+    /// so their distance is the distance seen from above combined with the
+    /// gap between the height intervals. Boxes are compared through their
+    /// bounds.
     pub(crate) fn closest(self, other: Shape) -> Closest {
         match (self, other) {
             (Shape::Leg(a0, a1), Shape::Leg(b0, b1)) => {
-                let c = if a0 == a1 {
-                    let c = point_segment(a0, b0, b1);
+                let flat = |v: Vec3| Vec3::new(v.x, v.y, 0.0);
+                let (p, q) = if a0 == a1 {
+                    let c = point_segment(flat(a0), flat(b0), flat(b1));
                     (c.first, c.second)
                 } else {
-                    let c = segment_segment(a0, a1, b0, b1);
+                    let c = segment_segment(flat(a0), flat(a1), flat(b0), flat(b1));
                     (c.first, c.second)
                 };
+                let (za, zb) = closest_in(
+                    (a0.z.min(a1.z), a0.z.max(a1.z)),
+                    (b0.z.min(b1.z), b0.z.max(b1.z)),
+                );
+                let first = Vec3::new(p.x, p.y, za);
+                let second = Vec3::new(q.x, q.y, zb);
                 Closest {
-                    distance: c.0.distance(c.1),
-                    first: c.0,
-                    second: c.1,
+                    distance: first.distance(second),
+                    first,
+                    second,
                 }
             }
             _ => {
                 let (alo, ahi) = self.bounds();
                 let (blo, bhi) = other.bounds();
                 // The closest points of two boxes, axis by axis.
-                let pick = |alo: f64, ahi: f64, blo: f64, bhi: f64| {
-                    if ahi < blo {
-                        (ahi, blo)
-                    } else if bhi < alo {
-                        (alo, bhi)
-                    } else {
-                        let m = alo.max(blo);
-                        (m, m)
-                    }
-                };
+                let pick =
+                    |alo: f64, ahi: f64, blo: f64, bhi: f64| closest_in((alo, ahi), (blo, bhi));
                 let (x0, x1) = pick(alo.x, ahi.x, blo.x, bhi.x);
                 let (y0, y1) = pick(alo.y, ahi.y, blo.y, bhi.y);
                 let (z0, z1) = pick(alo.z, ahi.z, blo.z, bhi.z);
@@ -172,6 +180,18 @@ impl Shape {
             Shape::Leg(a, b) => (a, b),
             Shape::Box(lo, hi) => (lo, hi),
         }
+    }
+}
+
+/// The closest values of two intervals: equal where they overlap.
+fn closest_in(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    if a.1 < b.0 {
+        (a.1, b.0)
+    } else if b.1 < a.0 {
+        (a.0, b.1)
+    } else {
+        let m = a.0.max(b.0);
+        (m, m)
     }
 }
 
@@ -222,6 +242,19 @@ mod tests {
             sweep,
             Shape::Box(Vec3::new(0.0, 0.0, 5.0), Vec3::new(10.0, 4.0, 5.0))
         );
+    }
+
+    #[test]
+    fn a_climbing_leg_may_be_at_any_of_its_heights_anywhere_along_it() {
+        // Climbing from 2 to 20 m while flying 16 m north: above the
+        // spot 6.6 m off its straight segment at 5 m, it may be at 5 m.
+        let climb = Shape::Leg(Vec3::new(0.0, 0.0, 2.0), Vec3::new(16.0, 0.0, 20.0));
+        let parked = Shape::point(Vec3::new(16.0, 0.0, 5.0));
+        let c = climb.closest(parked);
+        assert!(c.distance < 1e-9, "{c:?}");
+        // Seen from above it stays on its line.
+        let beside = Shape::point(Vec3::new(8.0, 3.0, 11.0));
+        assert!((climb.closest(beside).distance - 3.0).abs() < 1e-9);
     }
 
     #[test]
