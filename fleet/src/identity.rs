@@ -95,9 +95,13 @@ pub fn split(identity: &str) -> Option<(&str, &str)> {
 }
 
 /// What a slice makes its drone do: the hash of the slice without its
-/// mission identity, source spans and labels.
+/// mission identity, source spans and labels. It hashes the slice file's
+/// own form ([`eamos_slicer::wire`]), not the compiler's types, so that it
+/// changes when the file format does and never because the compiler
+/// renamed a field.
 pub fn slice_digest(slice: &Slice) -> String {
-    let mut v = serde_json::to_value(slice).expect("a slice always serialises");
+    let wire = eamos_slicer::wire::v3::Slice::from(slice);
+    let mut v = serde_json::to_value(&wire).expect("a slice always serialises");
     if let Value::Object(map) = &mut v {
         map.remove("mission_id");
     }

@@ -1,10 +1,11 @@
 //! Feeds arbitrary bytes to the binary slice decoder, the form an agent
 //! reads from disk or receives when a slice is deployed. Two ways in: input
 //! that starts with the magic is decoded as it is (header, length and
-//! checksum parsing); any other input becomes the postcard payload of a
-//! well-framed file with a correct checksum, so that the fuzzer reaches the
-//! payload decoder and `Slice::validate` instead of stopping at the
-//! checksum. Neither may panic, and a slice that decodes must survive its
+//! checksum parsing); any other input becomes the postcard payload (the
+//! file's own types, `eamos_slicer::wire`) of a well-framed file with a
+//! correct checksum, so that the fuzzer reaches the payload decoder, the
+//! conversion to the compiler's types and `Slice::validate` instead of
+//! stopping at the checksum. Neither may panic, and a slice that decodes must survive its
 //! own encodings (binary and JSON) unchanged.
 
 use eamos_slicer::{Slice, FORMAT_VERSION, MAGIC};

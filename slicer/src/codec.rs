@@ -7,25 +7,28 @@
 //! | 8 | magic `EAMOSSLC` |
 //! | 2 | format version ([`FORMAT_VERSION`]) |
 //! | 4 | length `n` of the payload |
-//! | n | the slice, postcard-encoded |
+//! | n | the slice as [`v3::Slice`], postcard-encoded |
 //! | 32 | SHA3-256 of the payload |
 //!
 //! The checksum makes a damaged file an error rather than a different
 //! mission: postcard alone would decode many altered payloads into another,
 //! well-formed slice. The JSON form wraps the slice in
-//! `{"format": "eamos-slice", "version": 2, "slice": {...}}` and is checked
+//! `{"format": "eamos-slice", "version": 3, "slice": {...}}` and is checked
 //! for consistency ([`Slice::validate`]) when read; it carries no checksum so
 //! that a person can read and diff it.
+//!
+//! Both forms go through the file's own types ([`crate::wire`]), never the
+//! compiler's: a reader of another version is refused by number before its
+//! content is looked at.
 
 use serde::{Deserialize, Serialize};
 use sha3::{Digest, Sha3_256};
 
 use crate::error::DecodeError;
 use crate::slice::Slice;
+use crate::wire::{v3, FORMAT_VERSION};
 
 pub const MAGIC: &[u8; 8] = b"EAMOSSLC";
-/// Bumped whenever the slice type changes shape.
-pub const FORMAT_VERSION: u16 = 2;
 const FORMAT_NAME: &str = "eamos-slice";
 const HEADER: usize = 8 + 2 + 4;
 const DIGEST: usize = 32;
@@ -34,7 +37,7 @@ const DIGEST: usize = 32;
 struct JsonOut<'a> {
     format: &'a str,
     version: u16,
-    slice: &'a Slice,
+    slice: &'a v3::Slice,
 }
 
 #[derive(Deserialize)]
@@ -50,7 +53,7 @@ impl Slice {
         serde_json::to_string_pretty(&JsonOut {
             format: FORMAT_NAME,
             version: FORMAT_VERSION,
-            slice: self,
+            slice: &v3::Slice::from(self),
         })
         .expect("a slice always serialises")
     }
@@ -68,14 +71,16 @@ impl Slice {
                 expected: FORMAT_VERSION,
             });
         }
-        let slice: Slice = serde_json::from_value(file.slice)?;
+        let wire: v3::Slice = serde_json::from_value(file.slice)?;
+        let slice = Slice::try_from(wire)?;
         slice.validate()?;
         Ok(slice)
     }
 
     /// The compact form: header, postcard payload, checksum.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let payload = postcard::to_allocvec(self).expect("a slice always serialises");
+        let payload =
+            postcard::to_allocvec(&v3::Slice::from(self)).expect("a slice always serialises");
         let mut out = Vec::with_capacity(HEADER + payload.len() + DIGEST);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
@@ -122,8 +127,9 @@ impl Slice {
         if Sha3_256::digest(payload).as_slice() != digest {
             return Err(DecodeError::Checksum);
         }
-        let slice: Slice =
+        let wire: v3::Slice =
             postcard::from_bytes(payload).map_err(|e| DecodeError::Binary(e.to_string()))?;
+        let slice = Slice::try_from(wire)?;
         slice.validate()?;
         Ok(slice)
     }

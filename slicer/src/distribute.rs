@@ -12,7 +12,6 @@ use eamos_petri::net::{
 use petgraph::graph::DiGraph;
 use petgraph::visit::EdgeRef;
 use petgraph::Direction;
-use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use crate::end::End;
@@ -22,7 +21,7 @@ use crate::slice::{BridgeIn, BridgeOut, Produce, Slice, SliceTransition, GCS};
 
 /// The slices of one mission, the ground station's first, then one per
 /// drone in the order the mission declares them.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone)]
 pub struct Slices {
     pub mission: String,
     /// The mission identity every slice carries (see [`slice_as`]).

@@ -114,7 +114,8 @@
 //! initial marking, bridges in (id, peer, inbox place) and out (id, sending
 //! transition, peer, colour function), peers, and the remote drones whose
 //! telemetry its guards read. Files: [`Slice::to_json`] / [`Slice::to_bytes`]
-//! and back, [`write_dir`] for a whole mission.
+//! and back, [`write_dir`] for a whole mission; both forms are the file's
+//! own versioned types ([`wire`]), never the compiler's.
 
 pub mod bound;
 mod codec;
@@ -128,10 +129,12 @@ mod output;
 mod partition;
 pub mod slice;
 pub mod stats;
+pub mod wire;
 
-pub use codec::{FORMAT_VERSION, MAGIC};
+pub use codec::MAGIC;
 pub use distribute::{net_id, slice, slice_as, Slices};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};
 pub use stats::{SliceStats, Statistics};
+pub use wire::FORMAT_VERSION;

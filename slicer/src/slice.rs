@@ -26,7 +26,6 @@ use std::collections::BTreeSet;
 
 use eamos_lang::hir::Expr;
 use eamos_petri::net::{ColourOp, GuardKind, Place, PlaceKind, Transition};
-use serde::{Deserialize, Serialize};
 
 use crate::error::DecodeError;
 
@@ -41,7 +40,7 @@ pub type BridgeId = u32;
 /// The name the ground station goes by as a peer.
 pub const GCS: &str = "GCS";
 
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Slice {
     /// The mission (`package`) name.
     pub mission: String,
@@ -78,7 +77,7 @@ pub struct Slice {
 }
 
 /// A transition with its local arcs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct SliceTransition {
     /// Kind (action start/end/cancel with the action and its arguments),
     /// guard, delay, label, span and stable id from the mission net.
@@ -91,14 +90,14 @@ pub struct SliceTransition {
     pub produce: Vec<Produce>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Produce {
     pub place: LocalPlace,
     pub colour: ColourOp,
 }
 
 /// Tokens from a peer arrive here.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BridgeIn {
     pub id: BridgeId,
     pub from: String,
@@ -106,7 +105,7 @@ pub struct BridgeIn {
 }
 
 /// Firing `transition` sends a token to a peer.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct BridgeOut {
     pub id: BridgeId,
     pub transition: LocalTransition,

@@ -109,6 +109,15 @@ fn the_composed_slices_of_random_missions_have_the_traces_of_the_mission_net() {
                     s.drone
                 )));
             }
+            let read = Slice::from_json(&s.to_json()).map_err(|e| {
+                TestCaseError::fail(format!("JSON round trip of {}: {e}", s.drone))
+            })?;
+            if &read != s {
+                return Err(TestCaseError::fail(format!(
+                    "JSON round trip changed {}",
+                    s.drone
+                )));
+            }
         }
         let composed = compose(&slices.slices).map_err(|e| TestCaseError::fail(e.to_string()))?;
         match compare(&net, &composed, Budget::default()) {
