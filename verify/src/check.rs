@@ -993,13 +993,19 @@ fn spatial_results(
     });
     let verdict = if !found.is_empty() {
         Verdict::Violated
-    } else if let Some(why) = undecided {
+    } else if let Some(why) = undecided.clone() {
         Verdict::Unknown(why)
     } else {
         Verdict::Holds
     };
+    let violated_partly = matches!(verdict, Verdict::Violated) && undecided.is_some();
     let mut r = result(Property::Separation, verdict, method);
     r.notes.push(format!("separation {sep} m"));
+    if let (true, Some(why)) = (violated_partly, &undecided) {
+        // Violated all the same, but not every way the drones can meet
+        // was looked for: the findings are some of them, not the closest.
+        r.notes.push(format!("not every pair was judged: {why}"));
+    }
     props.push(r);
     findings.extend(found);
     (props, findings)
