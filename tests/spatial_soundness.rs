@@ -648,16 +648,17 @@ proptest! {
     }
 }
 
-/// Homes half a metre apart: separation is violated before any leg is
-/// looked at. The closest-approach claim once failed here (seen 0.30 m,
-/// 0.50 m with the strays; the checker's finding for the pair 0.77 m, its
-/// homes 0.51 m), before the finding of a pair became its closest way to
-/// meet and before a separation judged on the homes alone said so. The
-/// simulated flight is not the same from run to run (the sim clock runs
-/// against the wall clock's scheduling), so this replays the case, not
-/// necessarily the same flight.
+/// D1 and D2 start 0.77 m apart, closer than the separation, and their
+/// lanes overlap. The closest-approach claim once failed here: seen
+/// 0.30 m (0.50 m with the strays) against 0.77 m, the distance of the
+/// homes finding, taken for the pair's closest although a finding about
+/// their legs says 0.00 m. The pair's closest approach is the least over
+/// every finding about the two (and each pair's finding is now its closest
+/// way to meet). The simulated flight is not exactly the same from run to
+/// run (the sim clock runs against the wall clock's scheduling), so this
+/// replays the case, not necessarily the same flight.
 #[test]
-fn homes_too_close_with_too_many_pairs_to_judge_claim_only_the_homes() {
+fn the_closest_approach_of_two_drones_is_the_least_of_their_findings() {
     let c = Case {
         drones: 4,
         nodes: 84,
