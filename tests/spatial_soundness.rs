@@ -651,8 +651,8 @@ proptest! {
 /// D1 and D2 start 0.77 m apart, closer than the separation, and their
 /// lanes overlap. The closest-approach claim once failed here: seen
 /// 0.30 m (0.50 m with the strays) against 0.77 m, the distance of the
-/// homes finding, taken for the pair's closest although a finding about
-/// their legs says 0.00 m. The pair's closest approach is the least over
+/// homes finding, taken for the pair's closest although the findings
+/// about their legs say less. The pair's closest approach is the least over
 /// every finding about the two (and each pair's finding is now its closest
 /// way to meet). The simulated flight is not exactly the same from run to
 /// run (the sim clock runs against the wall clock's scheduling), so this
