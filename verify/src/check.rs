@@ -167,13 +167,13 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
                 .iter()
                 .map(|&(t, place)| MonitorKind::Unsafe { t, place }),
         );
-        let ext = space
-            .as_ref()
-            .map(|prep| space::extend(pt.clone(), &conc, prep));
-        let base = ext.as_ref().map_or_else(|| pt.clone(), |e| e.net.clone());
-        if let Some(e) = &ext {
+        let mut ext = space.as_ref().map(|prep| space::extend(&pt, &conc, prep));
+        let mut recorded = None;
+        if let Some(e) = &mut ext {
             monitors.extend(e.monitors.iter().cloned());
+            recorded = e.net.take();
         }
+        let base = recorded.unwrap_or_else(|| pt.clone());
         let net = base.with_monitors(monitors);
         let ex = explore::explore::<Bits>(&net, &cfg);
         let unsafe_hit = matches!(ex.stop, Some(Stop::Unsafe { .. }))

@@ -25,6 +25,7 @@ pub mod check;
 pub mod conditions;
 mod explore;
 mod mission;
+mod names;
 pub mod pnml;
 mod ptnet;
 pub mod report;

@@ -29,25 +29,14 @@ use petgraph::visit::EdgeRef;
 
 use crate::check::{ActionInfo, Subject};
 use crate::conditions::{self, Domain, Possibility};
-use crate::ptnet::{PlaceInfo, PtNet, RawTransition, StepInfo};
+use crate::names::{self, fmt_num, Names};
+use crate::ptnet::{PlaceInfo, PtNet, RawTransition, StepInfo, MAX_COUNTED_ROUNDS};
 use crate::report::{Finding, FindingKind, InputKind, Label, Limit};
-use crate::space::{airspace, flight, model, Names, Prepared, Space};
-
-fn fmt_num(v: f64) -> String {
-    if v.fract() == 0.0 && v.abs() < 1e15 {
-        format!("{}", v as i64)
-    } else {
-        format!("{v}")
-    }
-}
+use crate::space::walk::Walker;
+use crate::space::{airspace, flight, model, Prepared, Space};
 
 pub(crate) fn action_text(net: &Net, a: &ActionRef) -> String {
-    let drone = net
-        .drones
-        .get(a.drone.0 as usize)
-        .map_or("?", String::as_str);
-    let args: Vec<String> = a.args.iter().map(|&v| fmt_num(v)).collect();
-    format!("{drone}.{}({})", a.name, args.join(", "))
+    names::action_text(&net.drones, a)
 }
 
 /// The text of a span, if it lies in the source.
@@ -472,8 +461,11 @@ fn prepare(
 ) -> Prepared {
     let names = Names::new(net, src);
     let too_large = |_| "the mission is too large to follow every drone's legs".to_string();
-    let positions = model::positions(net, profiles).map_err(too_large);
-    let flight = flight::findings(net, profiles, &space.airspace, &names).map_err(too_large);
+    // One walker serves both analyses (it indexes the net's blocks once).
+    let walker = Walker::new(net);
+    let positions = model::positions(net, profiles, &walker).map_err(too_large);
+    let flight =
+        flight::findings(net, profiles, &walker, &space.airspace, &names).map_err(too_large);
     let airspace = match &positions {
         Ok(p) => Ok(airspace::findings(p, space, &names)),
         Err(e) => Err(e.clone()),
@@ -500,7 +492,6 @@ fn prepare(
     };
     Prepared {
         space: space.clone(),
-        drones: net.drones.clone(),
         positions,
         airspace,
         flight,
@@ -510,18 +501,6 @@ fn prepare(
         names,
     }
 }
-
-/// Above this many rounds a `RepeatFor` is not explored. Its counter is
-/// explored exactly (one marking per round, see the module doc), with one
-/// place and one copy of the guarded steps per round, so time and memory
-/// grow with the square of the count: with a one-action body, a debug build
-/// took 0.2 s for 250 rounds, 3.5 s and 75 MB for 1,000, 395 s and 5.4 GB
-/// for 10,000; a billion would run for hours into the memory bound. A count
-/// is no reason to unroll that many states, so instead of a partial
-/// exploration the check says at once which loop is too large. (Loops
-/// nested in loops multiply their rounds; the memory bound still stops
-/// those.)
-pub(crate) const MAX_COUNTED_ROUNDS: u32 = 1_000;
 
 /// The limit for a `RepeatFor` of `count` rounds whose statement is at
 /// `stmt`; it points at the count when the source is at hand.

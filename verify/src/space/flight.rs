@@ -24,18 +24,23 @@ use crate::report::{Finding, FindingKind, Label};
 pub(crate) fn findings(
     net: &Net,
     profiles: &ProfileTable,
+    walker: &Walker,
     airspace: &Airspace,
     names: &Names,
 ) -> Result<Vec<Finding>, OutOfBudget> {
     let mut out = Vec::new();
-    out.extend(states(net, profiles, names)?);
+    out.extend(states(net, profiles, walker, names)?);
     out.extend(arguments(net, profiles, airspace, names));
     Ok(out)
 }
 
-fn states(net: &Net, profiles: &ProfileTable, names: &Names) -> Result<Vec<Finding>, OutOfBudget> {
+fn states(
+    net: &Net,
+    profiles: &ProfileTable,
+    walker: &Walker,
+    names: &Names,
+) -> Result<Vec<Finding>, OutOfBudget> {
     let actions = tracked(net, profiles, |sig| sig.flight.is_some());
-    let walker = Walker::new(net);
     let mut start_of: HashMap<NodeId, usize> = HashMap::new();
     for (i, t) in actions.iter().enumerate() {
         for &s in &t.starts {

@@ -30,9 +30,8 @@ pub(crate) mod walk;
 
 pub use eamos_geo::default_home;
 use eamos_geo::{Airspace, Vec3};
-use eamos_lang::Span;
-use eamos_petri::net::{ActionRef, Net};
 
+pub(crate) use crate::names::Names;
 pub(crate) use near::{extend, MAX_WATCHED};
 pub(crate) use too_close::{homes_findings, near_findings};
 
@@ -67,7 +66,6 @@ impl Space {
 /// rest of the checker's subject.
 pub(crate) struct Prepared {
     pub space: Space,
-    pub drones: Vec<String>,
     pub positions: Result<model::Positions, String>,
     /// Findings decided without exploring (airspace, flight states).
     pub airspace: Result<Vec<crate::report::Finding>, String>,
@@ -78,50 +76,4 @@ pub(crate) struct Prepared {
     pub ends: Vec<Vec<u32>>,
     pub cancels: Vec<Vec<u32>>,
     pub names: Names,
-}
-
-/// Names in mission terms: an action as written, a span's line.
-#[derive(Clone)]
-pub(crate) struct Names {
-    drones: Vec<String>,
-    lines: Vec<u32>,
-}
-
-impl Names {
-    pub(crate) fn new(net: &Net, src: Option<&str>) -> Self {
-        let lines = src
-            .map(|s| {
-                s.char_indices()
-                    .filter(|(_, c)| *c == '\n')
-                    .map(|(i, _)| i as u32)
-                    .collect()
-            })
-            .unwrap_or_default();
-        Names {
-            drones: net.drones.clone(),
-            lines,
-        }
-    }
-
-    pub(crate) fn drones(&self) -> &[String] {
-        &self.drones
-    }
-
-    pub(crate) fn drone(&self, d: u16) -> String {
-        self.drones.get(d as usize).cloned().unwrap_or_default()
-    }
-
-    pub(crate) fn action(&self, a: &ActionRef) -> String {
-        let args: Vec<String> = a.args.iter().map(|v| format!("{v}")).collect();
-        format!("{}.{}({})", self.drone(a.drone.0), a.name, args.join(", "))
-    }
-
-    /// `line N` of a span, or nothing without the source.
-    pub(crate) fn line(&self, span: Span) -> String {
-        if self.lines.is_empty() && span.start == 0 {
-            return String::new();
-        }
-        let line = self.lines.partition_point(|&nl| nl < span.start) + 1;
-        format!("line {line}")
-    }
 }

@@ -159,21 +159,24 @@ impl Positions {
 }
 
 /// Follows every drone's motions from home.
-pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions, OutOfBudget> {
+pub(crate) fn positions(
+    net: &Net,
+    profiles: &ProfileTable,
+    walker: &Walker,
+) -> Result<Positions, OutOfBudget> {
     // Rounds are told apart up to the explorer's own bound; past it the
     // legs of a loop are not followed (the check says which loop).
     let counted_too_far = net.transitions().any(|(_, t)| {
         matches!(
             t.guard.as_ref().map(|g| &g.kind),
             Some(GuardKind::IterationBelow(n)) | Some(GuardKind::IterationAtLeast(n))
-                if *n > crate::mission::MAX_COUNTED_ROUNDS
+                if *n > crate::ptnet::MAX_COUNTED_ROUNDS
         )
     });
     if counted_too_far {
         return Err(OutOfBudget);
     }
     let motions = tracked(net, profiles, |sig| sig.motion.is_some());
-    let walker = Walker::new(net);
     let mut start_of: HashMap<NodeId, usize> = HashMap::new();
     for (m, t) in motions.iter().enumerate() {
         for &s in &t.starts {
@@ -267,7 +270,7 @@ pub(crate) fn positions(net: &Net, profiles: &ProfileTable) -> Result<Positions,
             }
         }
     }
-    out.preds = preds(&walker, &motions, &start_of, &mut budget)?;
+    out.preds = preds(walker, &motions, &start_of, &mut budget)?;
     out.exact_rounds = walker.cap();
     out.motions = motions;
     Ok(out)

@@ -33,7 +33,9 @@ pub(crate) enum Other {
 
 /// The compact net with the drones' rest records, and its monitors.
 pub(crate) struct Extended {
-    pub net: PtNet,
+    /// The net with the rest records, when some drone needs one (`None`:
+    /// the net as it was serves).
+    pub net: Option<PtNet>,
     pub monitors: Vec<MonitorKind>,
     pub candidates: Vec<Candidate>,
     /// Drones whose legs may overlap one another: their rests cannot be
@@ -51,10 +53,10 @@ pub(crate) struct Extended {
 pub(crate) const MAX_WATCHED: usize = 200;
 
 /// Adds the rest records and the separation monitors to `pt`.
-pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended {
+pub(crate) fn extend(pt: &PtNet, conc: &Concurrency, prep: &Prepared) -> Extended {
     let Ok(pos) = &prep.positions else {
         return Extended {
-            net: pt,
+            net: None,
             monitors: Vec::new(),
             candidates: Vec::new(),
             unordered: Vec::new(),
@@ -78,7 +80,7 @@ pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended
     let candidates = candidates(pos, prep, conc, &unordered);
     if candidates.len() > MAX_WATCHED {
         return Extended {
-            net: pt,
+            net: None,
             monitors: Vec::new(),
             candidates: Vec::new(),
             unordered,
@@ -101,10 +103,7 @@ pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended
     // One "last" place per rest of every ordered drone, also those that
     // never fly (they rest at home throughout).
     let mut last_place: BTreeMap<(u16, Last), u32> = BTreeMap::new();
-    for d in 0..prep.drones.len() as u16 {
-        if !resting.contains(&d) {
-            continue;
-        }
+    for &d in &resting {
         for last in pos.lasts(d) {
             let i = places.len() as u32;
             places.push(PlaceInfo {
@@ -151,7 +150,10 @@ pub(crate) fn extend(pt: PtNet, conc: &Concurrency, prep: &Prepared) -> Extended
             }
         }
     }
-    let net = PtNet::new(places, steps, raw, initial, pt.final_place);
+    // Without rest records the net is the one it was: no need to build it
+    // again (the big missions keep their drones apart, and pay nothing).
+    let net =
+        (!resting.is_empty()).then(|| PtNet::new(places, steps, raw, initial, pt.final_place));
     let monitors = candidates
         .iter()
         .enumerate()
@@ -204,7 +206,7 @@ fn candidates(
         .collect();
     let leg_bounds: Vec<Option<(Vec3, Vec3)>> = legs.iter().map(|s| bounds(s, sep)).collect();
     let mut rests: Vec<(u16, Last, Vec<Shape>)> = Vec::new();
-    for d in 0..prep.drones.len() as u16 {
+    for d in 0..prep.names.drones().len() as u16 {
         if unordered.contains(&d) {
             continue;
         }

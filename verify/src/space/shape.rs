@@ -134,11 +134,9 @@ impl Shape {
                 let (alo, ahi) = self.bounds();
                 let (blo, bhi) = other.bounds();
                 // The closest points of two boxes, axis by axis.
-                let pick =
-                    |alo: f64, ahi: f64, blo: f64, bhi: f64| closest_in((alo, ahi), (blo, bhi));
-                let (x0, x1) = pick(alo.x, ahi.x, blo.x, bhi.x);
-                let (y0, y1) = pick(alo.y, ahi.y, blo.y, bhi.y);
-                let (z0, z1) = pick(alo.z, ahi.z, blo.z, bhi.z);
+                let (x0, x1) = closest_in((alo.x, ahi.x), (blo.x, bhi.x));
+                let (y0, y1) = closest_in((alo.y, ahi.y), (blo.y, bhi.y));
+                let (z0, z1) = closest_in((alo.z, ahi.z), (blo.z, bhi.z));
                 let first = Vec3::new(x0, y0, z0);
                 let second = Vec3::new(x1, y1, z1);
                 Closest {

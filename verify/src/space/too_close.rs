@@ -181,7 +181,7 @@ pub(crate) fn homes_findings(prep: &Prepared) -> Vec<Finding> {
     let names = &prep.names;
     let sep = prep.space.airspace.separation;
     let mut out = Vec::new();
-    let n = prep.drones.len() as u16;
+    let n = names.drones().len() as u16;
     for a in 0..n {
         for b in a + 1..n {
             let (p, q) = (prep.space.home(a), prep.space.home(b));

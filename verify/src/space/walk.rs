@@ -56,7 +56,7 @@ impl<'n> Walker<'n> {
             })
             .max()
             .unwrap_or(0)
-            .min(crate::mission::MAX_COUNTED_ROUNDS)
+            .min(crate::ptnet::MAX_COUNTED_ROUNDS)
             + 1;
         let forks: HashMap<(u32, u32), NodeId> = net
             .transitions()
