@@ -194,22 +194,28 @@ fn the_one_process_fleet_runs_over_zenoh_on_loopback_too() {
     assert_counts_match_slices("experiment_b.go", dir.path());
 }
 
-#[test]
-fn experiment_d_is_refused_for_its_findings_and_says_which() {
-    // D1 and D2 move 20 cm every time the pilot hovers D3 over a square,
-    // for as long as D3 stays in the field: nothing bounds how far they go.
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::cargo_bin("eamos")
+/// Experiment D with its scripted pilot, for at most 120 s of mission time.
+fn run_experiment_d(dir: &Path, extra: &[&str]) -> std::process::Output {
+    Command::cargo_bin("eamos")
         .unwrap()
         .arg("run")
         .arg(paper("experiment_d.go"))
         .arg("--fleet")
         .arg(example("experiment_d_fleet.toml"))
+        .args(extra)
         .args(["--max-duration", "120", "--out"])
-        .arg(dir.path())
+        .arg(dir)
         .env("NO_COLOR", "1")
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn experiment_d_is_refused_for_its_findings_and_says_which() {
+    // D1 and D2 move 20 cm every time the pilot hovers D3 over a square,
+    // for as long as D3 stays in the field: nothing bounds how far they go.
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_experiment_d(dir.path(), &[]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("eamos::drift"), "{stderr}");
@@ -222,16 +228,7 @@ fn experiment_d_is_refused_for_its_findings_and_says_which() {
 #[test]
 fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_what_waited() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::cargo_bin("eamos")
-        .unwrap()
-        .arg("run")
-        .arg(paper("experiment_d.go"))
-        .arg("--fleet")
-        .arg(example("experiment_d_fleet.toml"))
-        .args(["--allow-findings", "--max-duration", "120", "--out"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
+    let out = run_experiment_d(dir.path(), &["--allow-findings"]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert_eq!(out.status.code(), Some(1), "{stdout}");
     assert!(stdout.contains("did not complete"), "{stdout}");

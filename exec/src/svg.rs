@@ -8,6 +8,7 @@ use std::fmt::Write;
 use std::sync::Mutex;
 
 use eamos_geo::Vec3;
+use eamos_petri::export::xml;
 
 use crate::event::{Event, Kind, Sink};
 
@@ -45,13 +46,6 @@ const W: f64 = 720.0;
 const H: f64 = 560.0;
 const MARGIN: f64 = 60.0;
 const LEGEND: f64 = 150.0;
-
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
 
 /// A tick step of 1, 2 or 5 times a power of ten giving 4 to 10 ticks.
 fn tick_step(span: f64) -> f64 {
@@ -104,7 +98,7 @@ pub fn trajectories(title: &str, paths: &BTreeMap<String, Vec<Vec3>>) -> String 
         s,
         r#"<text x="{}" y="24" font-size="16" text-anchor="middle">{} — paths seen from above</text>"#,
         (W - LEGEND) / 2.0,
-        esc(title)
+        xml(title)
     );
     // Grid and ticks.
     let step = tick_step((max_x - min_x).max(max_y - min_y));
@@ -178,7 +172,7 @@ pub fn trajectories(title: &str, paths: &BTreeMap<String, Vec<Vec3>>) -> String 
         let _ = writeln!(
             s,
             r#"<g id="path-{}"><polyline fill="none" stroke="{colour}" stroke-width="2" stroke-linejoin="round" points="{}"/>"#,
-            esc(name),
+            xml(name),
             pts.join(" ")
         );
         if let (Some(a), Some(b)) = (path.first(), path.last()) {
@@ -201,7 +195,7 @@ pub fn trajectories(title: &str, paths: &BTreeMap<String, Vec<Vec3>>) -> String 
             lx + 24.0,
             lx + 30.0,
             ly + 4.0,
-            esc(name)
+            xml(name)
         );
     }
     let n = paths.len() as f64;

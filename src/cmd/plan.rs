@@ -4,6 +4,7 @@
 
 use std::fmt::Write as _;
 
+use eamos_petri::export::xml;
 use eamos_verify::{Report, Space};
 
 const SIZE: f64 = 800.0;
@@ -157,11 +158,4 @@ pub fn svg(report: &Report, space: &Space, drones: &[String]) -> String {
     );
     out.push_str("</svg>\n");
     out
-}
-
-fn xml(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
 }

@@ -109,7 +109,7 @@ pub fn guard_text(net: &Net, t: &Transition) -> Option<String> {
 /// escaped and characters XML 1.0 cannot carry at all (most control
 /// characters) become U+FFFD, so any event name or label yields a
 /// well-formed document.
-pub(crate) fn xml(s: &str) -> String {
+pub fn xml(s: &str) -> String {
     let clean: String = s
         .chars()
         .map(|c| match c {
