@@ -121,3 +121,18 @@ fn a_fleet_file_with_a_bad_airspace_is_refused_with_its_line_and_column() {
         .stderr(predicate::str::contains("bad.toml:"))
         .stderr(predicate::str::contains("ceiling"));
 }
+
+#[test]
+fn a_plan_view_that_cannot_be_written_is_an_error_naming_its_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let svg = dir.path().join("no-such-dir").join("plan.svg");
+    eamos()
+        .arg("check")
+        .arg(repo("examples/survey.go"))
+        .arg("--svg")
+        .arg(&svg)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("cannot write"))
+        .stderr(predicate::str::contains("plan.svg"));
+}
