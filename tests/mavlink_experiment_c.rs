@@ -274,6 +274,10 @@ fn a_vehicle_that_never_gets_ready_fails_the_mission_in_bounded_time_naming_what
     let dir = tempfile::tempdir().unwrap();
     let p1 = free_udp_port();
     let _v1 = sim_vehicle(p1, &["--ready-after", "100000", "--speed", "1"]);
+    // Started after the vehicle's first PreArm text (2 s after boot),
+    // with the next one 30 s away, as a ground station that connects to
+    // an autopilot already running: the reason must be asked for.
+    std::thread::sleep(Duration::from_secs(3));
     let fleet = dir.path().join("fleet.toml");
     // The fleet file sets how long arming waits for readiness.
     std::fs::write(
@@ -303,7 +307,7 @@ fn a_vehicle_that_never_gets_ready_fails_the_mission_in_bounded_time_naming_what
         .unwrap_or_else(|| panic!("no reason for Drone1: {stdout}"));
     assert!(
         line.starts_with(
-            "Drone1: `Arm` timed out waiting for the vehicle was not ready to arm after 4"
+            "Drone1: the drone refused `Arm`: the vehicle was not ready to arm after 4 s; still missing: "
         ),
         "{line}"
     );

@@ -166,6 +166,10 @@ pub enum Kind {
         reason: String,
         airborne: bool,
     },
+    /// The drone's adapter says something the crew must read (an
+    /// autopilot that would leave the drone alone on a lost link; a
+    /// failsafe waiting for a pilot to give the drone back).
+    AdapterWarning { detail: String },
     /// How the failsafe ended (`ok`, or the error kind).
     FailsafeFinished {
         failsafe: String,

@@ -148,6 +148,37 @@ impl DroneLog {
     }
 }
 
+/// A drone's middle-layer log that also hands its adapter's warnings to
+/// the run's event stream, where the crew reads them (the terminal, the
+/// mission log), as the same event every consumer sees.
+pub struct WarningTap {
+    log: DroneLog,
+    events: std::sync::Arc<dyn Sink>,
+}
+
+impl WarningTap {
+    pub fn new(log: DroneLog, events: std::sync::Arc<dyn Sink>) -> WarningTap {
+        WarningTap { log, events }
+    }
+}
+
+impl LogSink for WarningTap {
+    fn record(&self, record: LogRecord) {
+        if let LogRecord::Adapter(a) = &record {
+            if let eamos_mid::log::AdapterEvent::Warning { detail } = &a.event {
+                self.events.event(&Event {
+                    time: a.time,
+                    drone: a.drone.clone(),
+                    kind: Kind::AdapterWarning {
+                        detail: detail.clone(),
+                    },
+                });
+            }
+        }
+        self.log.record(record);
+    }
+}
+
 /// Writes each event to its peer's mission log, `<drone>.mission.jsonl`.
 /// Telemetry samples are left out: the adapter log records where each
 /// drone was, at the adapter's own rate. Roll-out events belong to no

@@ -25,7 +25,7 @@ use crate::event::{Event, Kind, Sink, Tee};
 use crate::executor::{Agent, Executor, ExecutorOptions, Report};
 use crate::journal::{self, AgentJournal, JournalError};
 use crate::liveness::Liveness;
-use crate::log::{DroneLog, LogWriter};
+use crate::log::{LogWriter, WarningTap};
 use crate::svg::Paths;
 use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
@@ -167,6 +167,7 @@ async fn build_adapters(
     drones: &[String],
     options: &RunOptions,
     logs: &LogWriter,
+    events: &Arc<dyn Sink>,
     airframes: &BTreeMap<String, Airframe>,
 ) -> Result<Built, RunError> {
     let needs_sim = drones
@@ -197,7 +198,7 @@ async fn build_adapters(
                 drone: d.clone(),
                 profile: profile_name.clone(),
             })?;
-        let log: Arc<DroneLog> = Arc::new(logs.drone(d));
+        let log: Arc<WarningTap> = Arc::new(WarningTap::new(logs.drone(d), events.clone()));
         let entry = fleet.entry(d);
         let adapter: Arc<dyn Adapter> = match entry.adapter {
             AdapterKind::Sim => {
@@ -499,6 +500,8 @@ pub async fn run_fleet(
         let index = drones.iter().position(|x| x == d)?;
         slices.distributed.profiles.get(index).cloned()
     };
+    let paths = Arc::new(Paths::default());
+    let events = run_sink(&logs, &paths, options);
     let built = build_adapters(
         &drones,
         &profile_of,
@@ -507,11 +510,10 @@ pub async fn run_fleet(
         &drones,
         options,
         &logs,
+        &events,
         &airframes,
     )
     .await?;
-    let paths = Arc::new(Paths::default());
-    let events = run_sink(&logs, &paths, options);
     let paths_stop = CancellationToken::new();
     // The samplers hold the run's sink: they stop however this returns.
     let _samplers = paths_stop.clone().drop_guard();
@@ -597,6 +599,8 @@ pub async fn run_peer(
     };
     let airframes = recorded_airframes(&drones, &journals, options)?;
     let profile_of = |d: &str| (d == peer).then(|| slice.profile.clone()).flatten();
+    let paths = Arc::new(Paths::default());
+    let events = run_sink(&logs, &paths, options);
     let built = build_adapters(
         &slice.drones,
         &profile_of,
@@ -605,11 +609,10 @@ pub async fn run_peer(
         &drones,
         options,
         &logs,
+        &events,
         &airframes,
     )
     .await?;
-    let paths = Arc::new(Paths::default());
-    let events = run_sink(&logs, &paths, options);
     let paths_stop = CancellationToken::new();
     // The samplers hold the run's sink: they stop however this returns.
     let _samplers = paths_stop.clone().drop_guard();

@@ -384,6 +384,17 @@ pub trait Adapter: Send + Sync {
         fly_failsafe(self, kind).await
     }
 
+    /// Waits until the mission may command the drone again, before its
+    /// failsafe flies: a drone that a pilot (or the autopilot's own
+    /// failsafe) took over stays theirs until they give it back, and a
+    /// drone whose link is lost can be commanded only once the link
+    /// returns. [`Control::Down`] when whoever had it brought it down, so
+    /// that there is nothing left to fly. Adapters that never share their
+    /// drone answer at once.
+    async fn regain_control(&self) -> Result<Control, ActionError> {
+        Ok(Control::Mission)
+    }
+
     /// The point relative moves (`FlyByX`, `ReturnHome`'s height) start
     /// from now, in the local frame. An agent that journals a motion records
     /// the absolute target computed from it, so that a motion interrupted by
@@ -613,6 +624,16 @@ impl MultirotorAction {
     }
 }
 
+/// Whether the mission has its drone back (see [`Adapter::regain_control`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    /// The mission may command the drone.
+    Mission,
+    /// Whoever had the drone brought it down: it is on the ground, or
+    /// disarmed, and nothing is left to fly.
+    Down,
+}
+
 /// Flies `kind` with `adapter`'s own `Land` and `ReturnHome` actions (the
 /// default of [`Adapter::failsafe`]). A drone on the ground has nothing to
 /// do. The caller cancels whatever the drone was doing first.
@@ -620,6 +641,13 @@ pub async fn fly_failsafe<A: Adapter + ?Sized>(
     adapter: &A,
     kind: Failsafe,
 ) -> Result<(), ActionError> {
+    // Holding flies nothing, so it takes nothing back from anyone.
+    if kind == Failsafe::Hold {
+        return Ok(());
+    }
+    if adapter.regain_control().await? == Control::Down {
+        return Ok(());
+    }
     if adapter.telemetry().borrow().landed {
         return Ok(());
     }

@@ -25,7 +25,7 @@ pub mod uniform;
 
 pub use api::{
     evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, Axis, CancellationToken,
-    FlightMode, MultirotorAction, PropertyArg, PropertyError, Telemetry, Value, Vec3,
+    Control, FlightMode, MultirotorAction, PropertyArg, PropertyError, Telemetry, Value, Vec3,
 };
 pub use clock::MissionClock;
 pub use failsafe::Failsafe;

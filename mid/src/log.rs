@@ -115,6 +115,10 @@ pub enum AdapterEvent {
     /// A change of state not asked for by an action: touchdown, low
     /// battery, a pilot taking over, a link coming back.
     State { detail: String },
+    /// Something the crew must read before or during the flight, such as
+    /// an autopilot that would leave the drone with nobody in charge on a
+    /// lost link. Whoever runs the mission shows it, not only the log.
+    Warning { detail: String },
 }
 
 /// Where records go. Implementations must not block: records are produced

@@ -13,7 +13,7 @@ use eamos_profile::Profile;
 use tokio::sync::watch;
 
 use crate::api::{
-    evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken,
+    evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken, Control,
     PropertyArg, PropertyError, Telemetry, Value, Vec3,
 };
 use crate::clock::MissionClock;
@@ -167,6 +167,10 @@ impl Adapter for Uniform {
             Some((&result, duration)),
         );
         result
+    }
+
+    async fn regain_control(&self) -> Result<Control, ActionError> {
+        self.adapter.regain_control().await
     }
 
     fn motion_reference(&self) -> Result<Vec3, ActionError> {

@@ -174,15 +174,19 @@ async fn the_adapter_arms_takes_off_flies_a_box_lands_and_disarms() {
 }
 
 #[tokio::test]
-async fn arming_a_vehicle_that_never_gets_ready_times_out_naming_what_is_missing() {
+async fn arming_a_vehicle_that_never_gets_ready_is_refused_naming_what_is_missing() {
     let r = rig(
         |v| v.ready_after = 1.0e6,
         |a| a.ready_timeout = Duration::from_secs(3),
     )
     .await;
     let e = run(&r.adapter, "Arm", &[]).await.unwrap_err();
-    let ActionError::Timeout { action, what } = &e else {
-        panic!("expected a timeout, got {e:?}");
+    let ActionError::Refused {
+        action,
+        reason: what,
+    } = &e
+    else {
+        panic!("expected a refusal, got {e:?}");
     };
     assert_eq!(action, "Arm");
     assert!(

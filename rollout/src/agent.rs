@@ -54,6 +54,8 @@ pub fn describe(kind: &Kind) -> Option<String> {
         Kind::RolloutRefused { what, reason } => format!("refused a {what}: {reason}"),
         Kind::RolloutStarted { identity } => format!("started mission {identity}"),
         Kind::RolloutEnded { identity, outcome } => format!("mission {identity} ended: {outcome}"),
+        // The crew at the drone reads what its autopilot would do wrong.
+        Kind::AdapterWarning { detail } => format!("warning: {detail}"),
         _ => return None,
     })
 }

@@ -312,9 +312,9 @@ async fn show_progress(mut rx: mpsc::UnboundedReceiver<Event>, peers: Vec<(Strin
                 "started {} (resumed)",
                 ActionCall::new(action.clone(), args.clone())
             ),
-            Kind::ActionFinished { action, .. } => {
+            Kind::ActionFinished { .. } => {
                 bar.inc(1);
-                format!("finished {action}")
+                finished_line(&e.kind).unwrap_or_default()
             }
             Kind::BridgeSent { .. } => {
                 c.0 += 1;
@@ -364,7 +364,29 @@ fn alert(e: &Event) -> Option<String> {
             airborne: true,
             ..
         } => format!("failsafe: {failsafe}"),
+        Kind::AdapterWarning { detail } => format!("warning: {detail}"),
         _ => return None,
+    })
+}
+
+/// How an action ended, in the words a crew reads: only an action that
+/// succeeded "finished"; a failed one says why, so that a refused `Arm`
+/// never reads as done.
+fn finished_line(kind: &Kind) -> Option<String> {
+    let Kind::ActionFinished {
+        action,
+        outcome,
+        error,
+        ..
+    } = kind
+    else {
+        return None;
+    };
+    Some(match (outcome.as_str(), error) {
+        ("ok", _) => format!("finished {action}"),
+        ("cancelled", _) => format!("cancelled {action}"),
+        (_, Some(error)) => format!("failed {action}: {error}"),
+        (outcome, None) => format!("failed {action} ({outcome})"),
     })
 }
 
@@ -447,4 +469,40 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
         out.display(),
         out.join("trajectories.svg").display()
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn finished(outcome: &str, error: Option<&str>) -> Kind {
+        Kind::ActionFinished {
+            action: "Arm()".into(),
+            instance: 3,
+            colour: Default::default(),
+            outcome: outcome.into(),
+            error: error.map(Into::into),
+        }
+    }
+
+    #[test]
+    fn only_an_action_that_succeeded_reads_as_finished() {
+        assert_eq!(
+            finished_line(&finished("ok", None)).as_deref(),
+            Some("finished Arm()")
+        );
+        let refused = "the drone refused `Arm`: the vehicle was not ready to arm";
+        assert_eq!(
+            finished_line(&finished("refused", Some(refused))).unwrap(),
+            format!("failed Arm(): {refused}")
+        );
+        assert_eq!(
+            finished_line(&finished("cancelled", Some("`Arm` was cancelled"))).as_deref(),
+            Some("cancelled Arm()")
+        );
+        assert_eq!(
+            finished_line(&finished("timeout", None)).as_deref(),
+            Some("failed Arm() (timeout)")
+        );
+    }
 }

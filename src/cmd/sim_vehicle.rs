@@ -72,9 +72,29 @@ pub struct Args {
     /// disarms itself (ArduPilot's DISARM_DELAY).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
     pub idle_disarm_after: f64,
+    /// Set a parameter the vehicle acts on, as on the autopilot
+    /// (`FS_GCS_ENABLE=1`, `FS_GCS_TIMEOUT=3`; PX4 `COM_OBL_RC_ACT=4`);
+    /// repeat for several.
+    #[arg(long = "param", value_name = "NAME=VALUE", value_parser = parse_param)]
+    pub params: Vec<(String, f64)>,
+    /// How far (m) the reported position of a flying copter wanders, as a
+    /// real EKF's estimate does while hovering (0: none).
+    #[arg(long, value_name = "METRES", default_value_t = 0.05)]
+    pub position_noise: f64,
     /// Stop after this many real seconds (for scripts and tests).
     #[arg(long, value_name = "SECONDS")]
     pub exit_after: Option<f64>,
+}
+
+fn parse_param(text: &str) -> Result<(String, f64), String> {
+    let (name, value) = text
+        .split_once('=')
+        .ok_or_else(|| format!("`{text}` is not NAME=VALUE"))?;
+    let value: f64 = value
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{value}` is not a number"))?;
+    Ok((name.trim().to_string(), value))
 }
 
 fn bad_input(message: &str) -> ExitCode {
@@ -117,6 +137,8 @@ pub fn run(args: Args) -> ExitCode {
             Autopilot::Px4 => Firmware::Px4,
         },
         offboard_loss_after: args.offboard_loss_after,
+        params: args.params,
+        position_noise: args.position_noise,
         ..SimVehicleOptions::default()
     };
     if let Err(e) = options.validate() {

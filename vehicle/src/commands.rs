@@ -2,8 +2,9 @@
 
 use eamos_geo::{Ned, Vec3};
 use eamos_mid::mavlink::dialect::{
-    MavCmd, MavDataStream, MavFrame, MavMessage, MavResult, MavSeverity, PositionTargetTypemask,
-    COMMAND_ACK_DATA, COMMAND_LONG_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
+    MavCmd, MavDataStream, MavFrame, MavMessage, MavResult, MavSeverity, MavType,
+    PositionTargetTypemask, COMMAND_ACK_DATA, COMMAND_LONG_DATA,
+    SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
 use eamos_mid::mavlink::link::Received;
 use eamos_mid::mavlink::modes::CopterMode;
@@ -43,6 +44,14 @@ impl Vehicle {
                 if self.for_me(t.target_system, t.target_component) =>
             {
                 self.position_target(t);
+            }
+            MavMessage::PARAM_REQUEST_READ(p)
+                if self.for_me(p.target_system, p.target_component) =>
+            {
+                self.answer_param(p);
+            }
+            MavMessage::HEARTBEAT(h) if h.mavtype == MavType::MAV_TYPE_GCS => {
+                self.gcs_heard = Some(self.time);
             }
             MavMessage::REQUEST_DATA_STREAM(r)
                 if self.for_me(r.target_system, r.target_component) =>
@@ -170,6 +179,12 @@ impl Vehicle {
                 MAV_RESULT_ACCEPTED
             }
             MavCmd::MAV_CMD_DO_DIGICAM_CONFIGURE => MAV_RESULT_ACCEPTED,
+            MavCmd::MAV_CMD_RUN_PREARM_CHECKS => {
+                if let Some(text) = self.prearm_failure() {
+                    self.say(MavSeverity::MAV_SEVERITY_CRITICAL, text);
+                }
+                MAV_RESULT_ACCEPTED
+            }
             _ => MAV_RESULT_UNSUPPORTED,
         }
     }

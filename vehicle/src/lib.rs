@@ -29,6 +29,12 @@
 //! - Armed on the ground without taking off for `idle_disarm_after`
 //!   seconds (ArduPilot's DISARM_DELAY): it disarms itself. LAND disarms on
 //!   touchdown.
+//! - Parameters (`params`): it serves the ones it acts on by name
+//!   (PARAM_REQUEST_READ): `FS_GCS_ENABLE` (0 by default, as ArduCopter
+//!   ships) and `FS_GCS_TIMEOUT`: with the GCS failsafe on, no ground
+//!   station heartbeat for that long while flying takes it to RTL (1, 3, 6)
+//!   or LAND (4, 5, 7). `MAV_CMD_RUN_PREARM_CHECKS` repeats a failing
+//!   pre-arm check at once.
 //!
 //! With `autopilot = Firmware::Px4` it behaves like PX4 instead where PX4
 //! differs in ways a ground station must handle:
@@ -40,8 +46,10 @@
 //! - OFFBOARD is refused (`MAV_RESULT_TEMPORARILY_REJECTED`) unless
 //!   SET_POSITION_TARGET_LOCAL_NED setpoints have been arriving, the last
 //!   within `offboard_loss_after` seconds; in OFFBOARD, when the stream
-//!   stops for that long, it leaves OFFBOARD for AUTO.LOITER (PX4's
-//!   offboard-loss failsafe) and says so.
+//!   stops for that long, it leaves OFFBOARD (PX4's offboard-loss
+//!   failsafe) for the mode `COM_OBL_RC_ACT` names (Return, Land; the
+//!   pilot's modes, which need sticks it has not, and Hold become
+//!   AUTO.LOITER; Terminate and Disarm stop the motors) and says so.
 //! - Take-off: armed in OFFBOARD, a setpoint above the ground makes it
 //!   climb; or `MAV_CMD_NAV_TAKEOFF` (param7 an altitude above sea level,
 //!   NaN for the default 2.5 m) climbs in AUTO.TAKEOFF and then holds in
@@ -71,6 +79,7 @@ mod flight;
 pub mod handle;
 mod mode;
 pub mod options;
+mod params;
 mod px4;
 mod state;
 mod task;

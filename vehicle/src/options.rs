@@ -4,6 +4,8 @@ use eamos_geo::{Ned, Wgs84};
 use eamos_mid::mavlink::ConnectAddress;
 use eamos_mid::sim::kinematics::MultirotorConfig;
 
+use crate::state::Vehicle;
+
 /// How the test vehicle is set up.
 #[derive(Debug, Clone)]
 pub struct SimVehicleOptions {
@@ -38,6 +40,12 @@ pub struct SimVehicleOptions {
     /// PX4: simulated seconds without a setpoint after which OFFBOARD is
     /// unavailable, or left for AUTO.LOITER (PX4's `COM_OF_LOSS_T`).
     pub offboard_loss_after: f64,
+    /// Parameters set as on the autopilot (`FS_GCS_ENABLE`,
+    /// `COM_OBL_RC_ACT`, ...), over the firmware's defaults.
+    pub params: Vec<(String, f64)>,
+    /// How far (m) the reported position of a flying copter wanders
+    /// around where it is, as a real EKF's estimate does while hovering.
+    pub position_noise: f64,
 }
 
 /// The autopilot firmware a test vehicle imitates.
@@ -66,6 +74,8 @@ impl Default for SimVehicleOptions {
             kinematics: MultirotorConfig::default(),
             autopilot: Firmware::ArduPilot,
             offboard_loss_after: 1.0,
+            params: Vec::new(),
+            position_noise: 0.05,
         }
     }
 }
@@ -104,6 +114,26 @@ impl SimVehicleOptions {
                 "the offboard loss time must be above zero, not {}",
                 self.offboard_loss_after
             ));
+        }
+        if !(self.position_noise.is_finite() && (0.0..=5.0).contains(&self.position_noise)) {
+            return Err(format!(
+                "the position noise must be between 0 and 5 m, not {}",
+                self.position_noise
+            ));
+        }
+        for (name, value) in &self.params {
+            if !Vehicle::knows_param(self.autopilot, name) {
+                return Err(format!(
+                    "the {} vehicle has no parameter {name} it acts on",
+                    match self.autopilot {
+                        Firmware::ArduPilot => "ArduPilot",
+                        Firmware::Px4 => "PX4",
+                    }
+                ));
+            }
+            if !value.is_finite() {
+                return Err(format!("parameter {name} must be a number, not {value}"));
+            }
         }
         if self.system_id == 0 {
             return Err("system id 0 is the broadcast address".to_string());

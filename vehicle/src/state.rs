@@ -45,6 +45,9 @@ pub(crate) struct Vehicle {
     pub(crate) announced: [bool; 4],
     pub(crate) next_prearm_text: f64,
     pub(crate) photos: u32,
+    /// When a ground station's heartbeat last came (ArduPilot's GCS
+    /// failsafe counts from it).
+    pub(crate) gcs_heard: Option<f64>,
     /// Messages to send after this step.
     pub(crate) outbox: Vec<MavMessage>,
 }
@@ -68,6 +71,7 @@ impl Vehicle {
             // text it is.
             next_prearm_text: 2.0,
             photos: 0,
+            gcs_heard: None,
             outbox: Vec::new(),
         }
         .with_default_streams()
@@ -206,17 +210,65 @@ impl Vehicle {
             self.set_mode(Mode::for_role(self.o.autopilot, Role::Hold));
         }
         // PX4's offboard-loss failsafe: OFFBOARD without a fresh setpoint
-        // is left for AUTO.LOITER.
+        // is left for the mode COM_OBL_RC_ACT names.
         if self.mode.firmware == Firmware::Px4
             && self.mode.role() == Role::Guided
             && !self.setpoints_fresh()
         {
-            self.say(
-                MavSeverity::MAV_SEVERITY_CRITICAL,
-                "Failsafe: offboard setpoints lost, switching to Hold",
-            );
-            self.set_mode(Mode::for_role(self.o.autopilot, Role::Hold));
+            self.offboard_lost();
         }
+        self.gcs_failsafe();
+    }
+
+    /// PX4 leaves OFFBOARD for `COM_OBL_RC_ACT`'s mode. Without RC sticks
+    /// the pilot's modes are unavailable and it holds instead.
+    fn offboard_lost(&mut self) {
+        let action = self.param("COM_OBL_RC_ACT").unwrap_or(0.0) as i64;
+        let (role, name) = match action {
+            3 => (Role::Rtl, "Return"),
+            4 => (Role::Land, "Land"),
+            6 | 7 => {
+                self.say(
+                    MavSeverity::MAV_SEVERITY_EMERGENCY,
+                    "Failsafe: offboard setpoints lost, disarming",
+                );
+                self.kin
+                    .place(Vec3::new(self.kin.position().x, self.kin.position().y, 0.0));
+                let _ = self.kin.disarm();
+                self.set_mode(Mode::for_role(self.o.autopilot, Role::Hold));
+                return;
+            }
+            _ => (Role::Hold, "Hold"),
+        };
+        self.say(
+            MavSeverity::MAV_SEVERITY_CRITICAL,
+            &format!("Failsafe: offboard setpoints lost, switching to {name}"),
+        );
+        self.set_mode(Mode::for_role(self.o.autopilot, role));
+    }
+
+    /// ArduCopter's GCS failsafe: with `FS_GCS_ENABLE` on, a flying copter
+    /// that has heard no ground station for `FS_GCS_TIMEOUT` returns home
+    /// or lands. A copter already landing or returning carries on.
+    fn gcs_failsafe(&mut self) {
+        if self.o.autopilot != Firmware::ArduPilot || !self.kin.is_airborne() {
+            return;
+        }
+        let enable = self.param("FS_GCS_ENABLE").unwrap_or(0.0) as i64;
+        let timeout = self.param("FS_GCS_TIMEOUT").unwrap_or(5.0);
+        let Some(heard) = self.gcs_heard else { return };
+        if enable == 0
+            || self.time - heard < timeout
+            || matches!(self.mode.role(), Role::Land | Role::Rtl)
+        {
+            return;
+        }
+        let role = match enable {
+            4 | 5 | 7 => Role::Land,
+            _ => Role::Rtl,
+        };
+        self.say(MavSeverity::MAV_SEVERITY_CRITICAL, "GCS Failsafe");
+        self.set_mode(Mode::for_role(self.o.autopilot, role));
     }
 
     /// PX4: whether a setpoint came within the offboard loss time.

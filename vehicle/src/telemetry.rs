@@ -1,7 +1,7 @@
 //! What the vehicle sends: the heartbeat and every stream a ground station
 //! asked for (or PX4 sends unasked), in the autopilot's own manner.
 
-use eamos_geo::{LocalFrame, Ned};
+use eamos_geo::{LocalFrame, Ned, Vec3};
 use eamos_mid::mavlink::dialect::{
     EkfStatusFlags, GpsFixType, MavAutopilot, MavDataStream, MavLandedState, MavMessage,
     MavModeFlag, MavState, MavSysStatusSensor, MavType, MavVtolState, EKF_STATUS_REPORT_DATA,
@@ -95,6 +95,38 @@ impl Vehicle {
         Ned::from_mission(self.kin.position()) - self.o.ekf_origin_offset
     }
 
+    /// The wander of the position estimate of a flying copter (a real EKF
+    /// drifts by centimetres around where the copter holds), and its rate
+    /// of change, which the reported velocity carries too: a sum of slow
+    /// sines per axis, their phases set by the system id, so that a run
+    /// is repeatable and two vehicles wander apart. Zero on the ground.
+    pub(crate) fn noise(&self) -> (Vec3, Vec3) {
+        let a = self.o.position_noise;
+        if a == 0.0 || !self.kin.is_airborne() {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        let t = self.time;
+        let phase = f64::from(self.o.system_id) * 1.7;
+        let axis = |k: f64| {
+            let waves = [(0.5, 2.9), (0.3, 1.3), (0.2, 0.61)];
+            let mut p = 0.0;
+            let mut v = 0.0;
+            for (weight, period) in waves {
+                let w = std::f64::consts::TAU / (period * (1.0 + 0.13 * k));
+                let x = w * t + phase * (k + 1.0);
+                p += a * weight * x.sin();
+                v += a * weight * w * x.cos();
+            }
+            (p, v)
+        };
+        let (x, y, z) = (axis(0.0), axis(1.0), axis(2.0));
+        // Height wanders less than position.
+        (
+            Vec3::new(x.0, y.0, 0.5 * z.0),
+            Vec3::new(x.1, y.1, 0.5 * z.1),
+        )
+    }
+
     pub(crate) fn boot_ms(&self) -> u32 {
         (self.time * 1000.0) as u32
     }
@@ -102,7 +134,8 @@ impl Vehicle {
     /// One message of a stream, or `None` when the autopilot would not
     /// have it yet (no local position before the EKF origin).
     pub(crate) fn message(&self, id: u32) -> Option<MavMessage> {
-        let v = self.kin.velocity();
+        let (wander, wander_rate) = self.noise();
+        let v = self.kin.velocity() + wander_rate;
         let vel = Ned::from_mission(v);
         Some(match id {
             1 => {
@@ -157,7 +190,7 @@ impl Vehicle {
                 if !self.has_fix() {
                     return None;
                 }
-                let p = self.kin.position();
+                let p = self.kin.position() + wander;
                 let here = LocalFrame::new(self.o.home).to_wgs84(p);
                 let (lat, lon, alt) = here.to_e7();
                 MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
@@ -176,7 +209,7 @@ impl Vehicle {
                 if !self.has_origin() {
                     return None;
                 }
-                let p = self.local_ned();
+                let p = self.local_ned() + Ned::from_mission(wander);
                 MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
                     time_boot_ms: self.boot_ms(),
                     x: p.north as f32,

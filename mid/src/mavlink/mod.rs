@@ -10,6 +10,7 @@
 //!   whatever is not MAVLink, shared by every task that sends or listens.
 //! - [`command`]: `COMMAND_LONG` with its `COMMAND_ACK`, retried on silence,
 //!   a refusal turned into a typed [`command::CommandError`].
+//! - [`params`]: reading an autopilot's parameters by name.
 //! - [`modes`]: the autopilots' custom flight modes (ArduCopter, PX4) and
 //!   how they map onto the middle layer's [`crate::FlightMode`].
 //! - [`readiness`]: what an autopilot must report before it may be armed.
@@ -24,11 +25,12 @@ pub mod address;
 pub mod command;
 pub mod link;
 pub mod modes;
+pub mod params;
 pub mod readiness;
 pub mod state;
 pub mod strategy;
 
-pub use adapter::{MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
+pub use adapter::{LostLinkCheck, MavlinkAdapter, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use address::ConnectAddress;
 pub use command::CommandError;
 pub use readiness::{Missing, NotReady, Readiness};

@@ -125,6 +125,11 @@ impl Readiness {
         }
     }
 
+    /// The autopilot's latest pre-arm message, if it said one.
+    pub fn prearm_text(&self) -> Option<&str> {
+        self.prearm_text.as_deref()
+    }
+
     /// The autopilot family, once a heartbeat said it.
     pub fn autopilot(&self) -> Option<Autopilot> {
         self.autopilot
@@ -305,10 +310,35 @@ impl fmt::Display for Missing {
 
 /// The vehicle did not become ready in time.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("the vehicle was not ready to arm after {} s; still missing: {}", .waited.as_secs(), list(.missing))]
+#[error("the vehicle was not ready to arm after {} s; still missing: {}{}", .waited.as_secs(), list(.missing), says(.missing, .autopilot_says))]
 pub struct NotReady {
     pub waited: Duration,
     pub missing: Vec<Missing>,
+    /// The autopilot's latest pre-arm message, which says in its own words
+    /// what stops it, whatever else is missing.
+    pub autopilot_says: Option<String>,
+}
+
+impl NotReady {
+    /// What `readiness` still lacks after waiting `waited`.
+    pub fn of(readiness: &Readiness, waited: Duration) -> NotReady {
+        NotReady {
+            waited,
+            missing: readiness.missing(),
+            autopilot_says: readiness.prearm_text().map(str::to_string),
+        }
+    }
+}
+
+/// The autopilot's words, unless a missing item already quotes them.
+fn says(missing: &[Missing], text: &Option<String>) -> String {
+    let quoted = missing
+        .iter()
+        .any(|m| matches!(m, Missing::PrearmChecks { reason: Some(_) }));
+    match text {
+        Some(t) if !quoted => format!("; the autopilot says: \"{t}\""),
+        _ => String::new(),
+    }
 }
 
 fn list(missing: &[Missing]) -> String {
@@ -532,12 +562,26 @@ mod tests {
 
     #[test]
     fn not_ready_says_how_long_it_waited_and_what_is_missing() {
-        let e = NotReady {
-            waited: Duration::from_secs(90),
-            missing: arducopter_until(2).missing(),
-        };
+        let e = NotReady::of(&arducopter_until(2), Duration::from_secs(90));
         let s = e.to_string();
         assert!(s.starts_with("the vehicle was not ready to arm after 90 s; still missing: an EKF position estimate"), "{s}");
         assert!(s.contains("pre-arm checks to pass"), "{s}");
+    }
+
+    #[test]
+    fn the_autopilots_prearm_words_are_quoted_whatever_else_is_missing() {
+        // No SYS_STATUS yet, so the pre-arm checks are not among what is
+        // missing; the autopilot's reason is still the most telling line.
+        let mut r = Readiness::new();
+        r.observe(&heartbeat(MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA));
+        r.observe(&statustext("PreArm: Need Position Estimate"));
+        let s = NotReady::of(&r, Duration::from_secs(4)).to_string();
+        assert!(
+            s.ends_with("; the autopilot says: \"PreArm: Need Position Estimate\""),
+            "{s}"
+        );
+        // Quoted once when the missing pre-arm checks already quote it.
+        let s = NotReady::of(&arducopter_until(2), Duration::from_secs(4)).to_string();
+        assert_eq!(s.matches("PreArm").count(), 1, "{s}");
     }
 }

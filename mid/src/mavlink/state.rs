@@ -32,6 +32,9 @@ pub struct Heartbeat {
 pub struct LocalPosition {
     pub position: Ned,
     pub velocity: Ned,
+    /// When the autopilot measured it, seconds since its boot (its own
+    /// clock, which runs at a simulator's speed-up where there is one).
+    pub boot_time: f64,
 }
 
 /// Everything the adapter knows about its vehicle.
@@ -153,6 +156,7 @@ impl VehicleState {
                 self.local = Some(LocalPosition {
                     position: Ned::new(f64::from(p.x), f64::from(p.y), f64::from(p.z)),
                     velocity: Ned::new(f64::from(p.vx), f64::from(p.vy), f64::from(p.vz)),
+                    boot_time: f64::from(p.time_boot_ms) / 1000.0,
                 });
             }
             MavMessage::GLOBAL_POSITION_INT(g) => {

@@ -104,6 +104,7 @@ impl Shared {
         let deadline = Instant::now() + self.options.ready_timeout;
         self.ready_wait(action, deadline, cancel).await?;
         self.flyable(action)?;
+        self.check_link_loss(action).await?;
         if !self.watched.borrow().vehicle.armed() {
             self.ensure_mode(action, ModeRole::Guided, cancel).await?;
             self.command(

@@ -61,11 +61,17 @@
 //!   armed for is refused.
 //! - Silence for longer than `link_timeout` is a lost link: the running
 //!   action fails with [`ActionError::LinkLost`] and the autopilot's own
-//!   failsafe takes over.
+//!   failsafe takes over. The adapter keeps listening; the mission's
+//!   failsafe flies once the link returns, unless the autopilot is already
+//!   bringing the drone down.
+//! - The end of a run does not take a drone back from a pilot: its
+//!   failsafe waits until the pilot gives the drone back (`control.rs`).
 
 mod actions;
 mod commands;
+mod control;
 mod land;
+mod link_loss;
 mod motion;
 mod options;
 mod ready;
@@ -84,8 +90,8 @@ use tokio::sync::watch;
 use tokio::time::Instant;
 
 use crate::api::{
-    ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken, MultirotorAction, Telemetry,
-    Vec3,
+    ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken, Control, MultirotorAction,
+    Telemetry, Vec3,
 };
 use crate::clock::MissionClock;
 use crate::log::AdapterEvent;
@@ -95,7 +101,7 @@ use super::link::Link;
 use super::readiness::{NotReady, Readiness};
 use super::state::VehicleState;
 
-pub use options::{MavlinkError, MavlinkOptions, MavlinkSettings};
+pub use options::{LostLinkCheck, MavlinkError, MavlinkOptions, MavlinkSettings};
 pub use tasks::STREAMS;
 
 use shared::{Flight, FrameState, Shared, Watched};
@@ -196,10 +202,10 @@ impl MavlinkAdapter {
             .await
         {
             Ok(()) => Ok(()),
-            Err(_) => Err(NotReady {
-                waited: started.elapsed(),
-                missing: s.watched.borrow().vehicle.readiness.missing(),
-            }),
+            Err(_) => Err(NotReady::of(
+                &s.watched.borrow().vehicle.readiness,
+                started.elapsed(),
+            )),
         }
     }
 }
@@ -244,6 +250,12 @@ impl Adapter for MavlinkAdapter {
             },
         });
         result
+    }
+
+    /// A pilot's drone stays the pilot's, and a lost link is waited out
+    /// (see `control.rs`).
+    async fn regain_control(&self) -> Result<Control, ActionError> {
+        self.shared.regain_control().await
     }
 
     /// Relative moves start from the last position target sent, else from

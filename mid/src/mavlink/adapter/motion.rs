@@ -14,7 +14,46 @@ use crate::mavlink::dialect::{
 };
 use crate::mavlink::modes::ModeRole;
 
+use super::options::Settle;
 use super::shared::{Check, Halt, Shared, Watched};
+
+/// Whether a motion has arrived: within the tolerance of its target and
+/// settled there, still for the settle time of the autopilot's own clock.
+pub(super) struct Arrival {
+    target: Vec3,
+    tolerance: f64,
+    settle: Settle,
+    anchor: Ned,
+    still_since: Option<f64>,
+}
+
+impl Arrival {
+    pub(super) fn new(s: &Shared, target: Vec3) -> Arrival {
+        Arrival {
+            target,
+            tolerance: s.options.arrival_tolerance,
+            settle: s.options.settle,
+            anchor: s.frame().anchor.unwrap_or_default(),
+            still_since: None,
+        }
+    }
+
+    /// Judges the latest local position.
+    pub(super) fn arrived(&mut self, w: &Watched) -> bool {
+        let Some(local) = w.vehicle.local else {
+            return false;
+        };
+        let here = (local.position - self.anchor).to_mission();
+        if here.distance(self.target) > self.tolerance
+            || local.velocity.to_mission().norm() > self.settle.speed
+        {
+            self.still_since = None;
+            return false;
+        }
+        let since = *self.still_since.get_or_insert(local.boot_time);
+        local.boot_time - since >= self.settle.time
+    }
+}
 
 impl Shared {
     /// Whether the mission has lost control of the drone: disarmed in the
@@ -173,6 +212,7 @@ impl Shared {
         let tolerance = self.options.arrival_tolerance;
         let deadline = Instant::now() + self.motion_timeout(distance);
         let ned = anchor + Ned::from_mission(target);
+        let mut arrival = Arrival::new(self, target);
         // Resend the target every second: UDP loses packets, and a target
         // that never arrived would otherwise look like a slow drone.
         let resend = async {
@@ -185,9 +225,10 @@ impl Shared {
             if let Some(fail) = self.lost_control(action, w, guided) {
                 return Check::Fail(fail);
             }
-            match Self::position(w, anchor) {
-                Some(p) if p.distance(target) <= tolerance => Check::Done(()),
-                _ => Check::Pending,
+            if arrival.arrived(w) {
+                Check::Done(())
+            } else {
+                Check::Pending
             }
         });
         let outcome = tokio::select! {
@@ -197,7 +238,7 @@ impl Shared {
         self.motion_outcome(action, outcome, || {
             let p = self.telemetry.borrow().position;
             format!(
-                "arrival within {tolerance} m of {target} (still {:.2} m away)",
+                "arrival within {tolerance} m of {target}, settled (still {:.2} m away)",
                 p.distance(target)
             )
         })

@@ -41,8 +41,13 @@ pub struct MavlinkOptions {
     pub link_timeout: Duration,
     /// Acknowledgement timeouts and retries of every command.
     pub commands: CommandPolicy,
-    /// A motion has arrived when within this distance of its target (m).
+    /// A motion has arrived when within this distance of its target (m)
+    /// and settled there (see [`Settle`]).
     pub arrival_tolerance: f64,
+    /// How still the drone must be before a motion counts as done, so
+    /// that the next motion does not cut the corner and `Land` does not
+    /// start while the drone still moves.
+    pub settle: Settle,
     /// The slowest the vehicle is expected to move (m/s): a motion of `d`
     /// metres times out after `motion_margin + d / min_speed`.
     pub min_speed: f64,
@@ -53,8 +58,45 @@ pub struct MavlinkOptions {
     /// Mission time; wall time from connection unless given (a fleet shares
     /// one origin).
     pub clock: Option<MissionClock>,
+    /// What to do before the first arming when a lost link would leave
+    /// the drone with nobody in charge (see `link_loss.rs`).
+    pub lost_link: LostLinkCheck,
     /// The adapter log.
     pub log: SharedSink,
+}
+
+/// A drone has settled when its speed stayed at most `speed` for `time`
+/// seconds of the autopilot's own clock (so a simulator's speed-up does
+/// not shorten it).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settle {
+    /// m/s; above a hovering copter's velocity noise.
+    pub speed: f64,
+    /// Seconds.
+    pub time: f64,
+}
+
+impl Default for Settle {
+    fn default() -> Self {
+        Settle {
+            speed: 0.3,
+            time: 0.5,
+        }
+    }
+}
+
+/// What the adapter does, before the first arming, about an autopilot
+/// whose own link-loss failsafe would not take the drone over.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LostLinkCheck {
+    /// Say so to the crew, and fly.
+    #[default]
+    Warn,
+    /// Refuse to arm, naming the parameter.
+    Refuse,
+    /// Do not read the parameters (an autopilot that does not serve them).
+    Off,
 }
 
 impl Default for MavlinkOptions {
@@ -69,11 +111,13 @@ impl Default for MavlinkOptions {
             require_gps: true,
             link_timeout: Duration::from_secs(5),
             commands: CommandPolicy::default(),
-            arrival_tolerance: 0.3,
+            arrival_tolerance: 0.2,
+            settle: Settle::default(),
             min_speed: 0.3,
             motion_margin: Duration::from_secs(30),
             rearm_for_takeoff: true,
             clock: None,
+            lost_link: LostLinkCheck::Warn,
             log: Arc::new(NullSink),
         }
     }
@@ -89,6 +133,7 @@ impl fmt::Debug for MavlinkOptions {
             .field("link_timeout", &self.link_timeout)
             .field("commands", &self.commands)
             .field("arrival_tolerance", &self.arrival_tolerance)
+            .field("settle", &self.settle)
             .finish_non_exhaustive()
     }
 }
@@ -101,13 +146,16 @@ impl fmt::Debug for MavlinkOptions {
 /// ready_timeout = 180        # seconds to wait for readiness when arming
 /// require_gps = true         # false indoors (motion capture, optical flow)
 /// link_timeout = 5           # seconds of silence that make a lost link
-/// arrival_tolerance = 0.3    # metres
+/// arrival_tolerance = 0.2    # metres from the target
+/// settle_speed = 0.3         # m/s: a motion is done once this still ...
+/// settle_time = 0.5          # ... for this many seconds of the autopilot's clock
 /// min_speed = 0.3            # m/s, for motion timeouts
 /// fleet_origin = [46.6139, 14.2650, 446.0]   # lat, lon, alt: home from GPS
 /// rearm_for_takeoff = true
 /// ack_timeout = 1.5          # seconds to wait for a COMMAND_ACK before resending
 /// command_attempts = 3       # sends of one command before giving up
 /// motion_margin = 30         # seconds added to every motion's timeout
+/// lost_link = "warn"         # "refuse" to arm, or "off", when a lost link would leave nobody in charge
 /// ```
 #[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -117,12 +165,15 @@ pub struct MavlinkSettings {
     pub require_gps: Option<bool>,
     pub link_timeout: Option<f64>,
     pub arrival_tolerance: Option<f64>,
+    pub settle_speed: Option<f64>,
+    pub settle_time: Option<f64>,
     pub min_speed: Option<f64>,
     pub fleet_origin: Option<[f64; 3]>,
     pub rearm_for_takeoff: Option<bool>,
     pub ack_timeout: Option<f64>,
     pub command_attempts: Option<u32>,
     pub motion_margin: Option<f64>,
+    pub lost_link: Option<LostLinkCheck>,
 }
 
 impl MavlinkSettings {
@@ -132,6 +183,7 @@ impl MavlinkSettings {
             ("ready_timeout", self.ready_timeout),
             ("link_timeout", self.link_timeout),
             ("arrival_tolerance", self.arrival_tolerance),
+            ("settle_speed", self.settle_speed),
             ("min_speed", self.min_speed),
             ("ack_timeout", self.ack_timeout),
             ("motion_margin", self.motion_margin),
@@ -140,6 +192,13 @@ impl MavlinkSettings {
                 if !(v.is_finite() && v > 0.0 && v < 1.0e6) {
                     return Err(format!("`{name}` must be a positive number, not {v}"));
                 }
+            }
+        }
+        if let Some(t) = self.settle_time {
+            if !(t.is_finite() && (0.0..=60.0).contains(&t)) {
+                return Err(format!(
+                    "`settle_time` must be between 0 and 60 seconds, not {t}"
+                ));
             }
         }
         if let Some(n) = self.command_attempts {
@@ -176,6 +235,12 @@ impl MavlinkSettings {
         if let Some(t) = self.arrival_tolerance {
             options.arrival_tolerance = t;
         }
+        if let Some(v) = self.settle_speed {
+            options.settle.speed = v;
+        }
+        if let Some(t) = self.settle_time {
+            options.settle.time = t;
+        }
         if let Some(v) = self.min_speed {
             options.min_speed = v;
         }
@@ -193,6 +258,9 @@ impl MavlinkSettings {
         }
         if let Some(t) = self.motion_margin {
             options.motion_margin = Duration::from_secs_f64(t);
+        }
+        if let Some(c) = self.lost_link {
+            options.lost_link = c;
         }
     }
 
@@ -241,7 +309,31 @@ mod tests {
         assert_eq!(o.ready_timeout, Duration::from_secs(180));
         assert_eq!(o.fleet_origin, Some(Wgs84::new(46.6, 14.2, 446.0)));
         assert_eq!(o.link_timeout, MavlinkOptions::default().link_timeout);
-        assert_eq!(o.arrival_tolerance, 0.3);
+        assert_eq!(o.arrival_tolerance, 0.2);
+        assert_eq!(o.settle, Settle::default());
+        assert_eq!(o.lost_link, LostLinkCheck::Warn);
+        let settle = MavlinkSettings {
+            settle_speed: Some(0.1),
+            settle_time: Some(2.0),
+            lost_link: Some(LostLinkCheck::Refuse),
+            ..MavlinkSettings::default()
+        };
+        settle.apply(&mut o);
+        assert_eq!(
+            o.settle,
+            Settle {
+                speed: 0.1,
+                time: 2.0
+            }
+        );
+        assert_eq!(o.lost_link, LostLinkCheck::Refuse);
+        let e = MavlinkSettings {
+            settle_time: Some(-1.0),
+            ..MavlinkSettings::default()
+        }
+        .validate()
+        .unwrap_err();
+        assert!(e.contains("`settle_time`"), "{e}");
     }
 
     #[test]

@@ -88,18 +88,50 @@ impl Shared {
                         started.elapsed().as_secs()
                     ));
                 }
+                Err(Halt::Timeout) => {
+                    self.ask_prearm_reasons(action).await;
+                    let not_ready =
+                        NotReady::of(&self.watched.borrow().vehicle.readiness, started.elapsed());
+                    return Err(ActionError::refused(action, not_ready));
+                }
                 Err(halt) => {
-                    let missing = self.watched.borrow().vehicle.readiness.missing();
-                    return Err(self.halt_error(action, halt, || {
-                        NotReady {
-                            waited: started.elapsed(),
-                            missing,
-                        }
-                        .to_string()
-                    }));
+                    return Err(self.halt_error(action, halt, || "readiness".to_string()));
                 }
             }
         }
+    }
+
+    /// Asks the autopilot to run its pre-arm checks now and say why they
+    /// fail (`MAV_CMD_RUN_PREARM_CHECKS`): ArduPilot repeats the reason
+    /// only every 30 s, so a short wait may have heard none. Waits for the
+    /// acknowledgement and the text that comes with it, never longer.
+    async fn ask_prearm_reasons(&self, action: &str) {
+        if self
+            .watched
+            .borrow()
+            .vehicle
+            .readiness
+            .prearm_text()
+            .is_some()
+        {
+            return;
+        }
+        let asked = self
+            .send_command(action, MavCmd::MAV_CMD_RUN_PREARM_CHECKS, [0.0; 7])
+            .await;
+        if !matches!(asked, Ok(Ok(()))) {
+            return;
+        }
+        let _ = self
+            .wait(
+                Instant::now() + self.options.commands.statustext_grace,
+                &CancellationToken::new(),
+                |w| match w.vehicle.readiness.prearm_text() {
+                    Some(_) => Check::Done(()),
+                    None => Check::Pending,
+                },
+            )
+            .await;
     }
 
     /// Fixes the mission frame on the ground point where the vehicle stands

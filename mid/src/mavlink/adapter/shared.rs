@@ -48,6 +48,9 @@ pub(super) struct Flight {
     pub(super) mission_armed: bool,
     /// A take-off is climbing (telemetry shows `Takeoff`).
     pub(super) taking_off: bool,
+    /// What the autopilot does on a lost link was read (once, before the
+    /// first arming).
+    pub(super) link_loss_read: bool,
 }
 
 pub(super) struct Shared {
@@ -97,6 +100,13 @@ impl Shared {
         let detail = detail.into();
         tracing::info!(drone = %self.drone, "{detail}");
         self.log(AdapterEvent::State { detail });
+    }
+
+    /// A note the crew must read (see [`AdapterEvent::Warning`]).
+    pub(super) fn warn(&self, detail: impl Into<String>) {
+        let detail = detail.into();
+        tracing::warn!(drone = %self.drone, "{detail}");
+        self.log(AdapterEvent::Warning { detail });
     }
 
     pub(super) fn flight(&self) -> Flight {

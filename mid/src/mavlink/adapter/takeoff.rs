@@ -11,6 +11,7 @@ use crate::mavlink::dialect::MavCmd;
 use crate::mavlink::modes::ModeRole;
 use crate::mavlink::strategy::TakeoffStart;
 
+use super::motion::Arrival;
 use super::shared::{Check, Shared};
 
 impl Shared {
@@ -123,18 +124,20 @@ impl Shared {
         target: Vec3,
         cancel: &CancellationToken,
     ) -> Result<(), ActionError> {
-        let tolerance = self.options.arrival_tolerance;
         let guided = self.autopilot().and_then(|a| a.mode_for(ModeRole::Guided));
-        let anchor = self.frame().anchor.unwrap_or_default();
         let deadline = Instant::now() + self.motion_timeout(height);
+        // Done at the height and settled there, not on the way up: the
+        // next motion would start while the drone still climbs.
+        let mut arrival = Arrival::new(self, target);
         let climbed = self
             .wait(deadline, cancel, |w| {
                 if let Some(fail) = self.lost_control(action, w, guided) {
                     return Check::Fail(fail);
                 }
-                match Self::position(w, anchor) {
-                    Some(p) if p.z >= target.z - tolerance => Check::Done(()),
-                    _ => Check::Pending,
+                if arrival.arrived(w) {
+                    Check::Done(())
+                } else {
+                    Check::Pending
                 }
             })
             .await;

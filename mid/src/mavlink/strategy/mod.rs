@@ -40,6 +40,15 @@ pub trait Strategy: Send + Sync {
     /// Whether the autopilot sends message `id` at all, so that asking for
     /// it is not repeated forever.
     fn sends(&self, id: u32) -> bool;
+
+    /// The parameters that decide what the autopilot does when the
+    /// mission's link goes silent while it flies in the guided mode.
+    fn link_loss_params(&self) -> &'static [&'static str];
+
+    /// Given those parameters' values (in that order), why a lost link
+    /// would leave the drone with nobody in charge, naming the parameter;
+    /// `None` when the autopilot itself would bring it down or home.
+    fn link_loss_gap(&self, values: &[f64]) -> Option<String>;
 }
 
 /// The strategy for `autopilot`, if the adapter knows how to fly it.
@@ -72,5 +81,20 @@ mod tests {
         assert_eq!(Px4.takeoff(1.5), TakeoffStart::SetpointAbove(1.5));
         assert!(!ArduPilot.streams_setpoints() && Px4.streams_setpoints());
         assert!(ArduPilot.sends(193) && !Px4.sends(193) && Px4.sends(32));
+    }
+
+    #[test]
+    fn a_link_loss_that_leaves_nobody_in_charge_names_the_parameter() {
+        let gap = ArduPilot.link_loss_gap(&[0.0, 5.0]).unwrap();
+        assert!(gap.starts_with("FS_GCS_ENABLE is 0"), "{gap}");
+        assert_eq!(ArduPilot.link_loss_gap(&[1.0, 5.0]), None);
+        assert_eq!(ArduPilot.link_loss_gap(&[5.0, 5.0]), None);
+        let gap = Px4.link_loss_gap(&[1.0, 5.0]).unwrap();
+        assert!(gap.starts_with("COM_OBL_RC_ACT is 5 (Hold)"), "{gap}");
+        let gap = Px4.link_loss_gap(&[1.0, 0.0]).unwrap();
+        assert!(gap.starts_with("COM_OBL_RC_ACT is 0 (Position)"), "{gap}");
+        assert!(Px4.link_loss_gap(&[1.0, 7.0]).unwrap().contains("motors"));
+        assert_eq!(Px4.link_loss_gap(&[1.0, 3.0]), None);
+        assert_eq!(Px4.link_loss_gap(&[1.0, 4.0]), None);
     }
 }

@@ -31,4 +31,31 @@ impl Strategy for Px4 {
     fn sends(&self, id: u32) -> bool {
         id != EKF_STATUS_REPORT
     }
+
+    /// PX4 leaves OFFBOARD `COM_OF_LOSS_T` seconds after the setpoint
+    /// stream stops, for the mode `COM_OBL_RC_ACT` names.
+    fn link_loss_params(&self) -> &'static [&'static str] {
+        &["COM_OF_LOSS_T", "COM_OBL_RC_ACT"]
+    }
+
+    fn link_loss_gap(&self, values: &[f64]) -> Option<String> {
+        let after = values.first().copied().unwrap_or(1.0);
+        let action = values.get(1).copied()?;
+        let (name, leaves) = match action as i64 {
+            3 | 4 => return None,
+            0 => ("Position", "holds there for a pilot's sticks"),
+            1 => (
+                "Altitude",
+                "holds its height for a pilot's sticks and drifts",
+            ),
+            2 => ("Manual", "waits for a pilot's sticks"),
+            5 => ("Hold", "holds there"),
+            6 => ("Terminate", "stops the motors in the air"),
+            7 => ("Disarm", "stops the motors in the air"),
+            _ => ("unknown", "does what this PX4 version makes of it"),
+        };
+        Some(format!(
+            "COM_OBL_RC_ACT is {action} ({name}): {after} s after the setpoint stream stops (COM_OF_LOSS_T), PX4 leaves OFFBOARD for {name} and {leaves}, with nobody in charge until the link returns (COM_OBL_RC_ACT = 3 returns it home, 4 lands it)"
+        ))
+    }
 }
