@@ -6,7 +6,12 @@
 //!   the drone back into its failsafe when the link returns, unless the
 //!   autopilot's own link-loss failsafe is already bringing it down;
 //! - before arming, an autopilot that would leave the drone alone on a
-//!   lost link (`FS_GCS_ENABLE = 0`) is named to the crew.
+//!   lost link (`FS_GCS_ENABLE = 0`) is named to the crew;
+//! - the square of the paper's experiment A closes on a PX4-like vehicle
+//!   whose reported position wanders, as a real EKF's does: each leg
+//!   starts from the last target, and each ends settled on its corner;
+//! - a real vehicle's home is what its autopilot reports, in the fleet's
+//!   one frame, and a fleet file that put it elsewhere is named.
 //!
 //! The vehicle runs in the test's own process, so that the test can be
 //! the pilot (its RC mode switch) and the radio (silence); the mission
@@ -21,9 +26,10 @@ use std::sync::mpsc;
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use eamos_geo::{LocalFrame, Vec3, Wgs84};
 use eamos_mid::mavlink::modes::CopterMode;
 use eamos_mid::mavlink::ConnectAddress;
-use eamos_vehicle::{SimVehicle, SimVehicleOptions, VehicleSnapshot};
+use eamos_vehicle::{Firmware, SimVehicle, SimVehicleOptions, VehicleSnapshot};
 
 fn free_udp_port() -> u16 {
     UdpSocket::bind("127.0.0.1:0")
@@ -47,14 +53,20 @@ struct Copter {
 
 impl Copter {
     fn start(port: u16, speed: f64, params: &[(&str, f64)]) -> Copter {
+        Copter::start_with(port, |o| {
+            o.speed = speed;
+            o.params = params.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+        })
+    }
+
+    fn start_with(port: u16, set: impl FnOnce(&mut SimVehicleOptions)) -> Copter {
         let runtime = tokio::runtime::Runtime::new().expect("a tokio runtime");
-        let options = SimVehicleOptions {
+        let mut options = SimVehicleOptions {
             connect: ConnectAddress::UdpOut(format!("127.0.0.1:{port}")),
             ready_after: 2.0,
-            speed,
-            params: params.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
             ..SimVehicleOptions::default()
         };
+        set(&mut options);
         let vehicle = runtime
             .block_on(SimVehicle::start(options))
             .expect("the test vehicle starts");
@@ -182,11 +194,15 @@ impl Drop for Flight {
 }
 
 fn fleet(dir: &Path, port: u16, mavlink: &str) -> PathBuf {
+    fleet_of(dir, "Copter", port, mavlink)
+}
+
+fn fleet_of(dir: &Path, drone: &str, port: u16, mavlink: &str) -> PathBuf {
     let path = dir.join("fleet.toml");
     std::fs::write(
         &path,
         format!(
-            "[failsafe]\non_abort = \"land\"\n\n[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n\n[drones.Copter.mavlink]\n{mavlink}"
+            "[failsafe]\non_abort = \"land\"\n\n[drones.{drone}]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n\n[drones.{drone}.mavlink]\n{mavlink}"
         ),
     )
     .unwrap();
@@ -320,4 +336,116 @@ fn an_autopilot_that_returns_home_on_a_lost_link_is_left_to_finish() {
         "landed at {:?}, not home",
         home.position
     );
+}
+
+#[test]
+fn the_square_of_experiment_a_closes_on_a_px4_vehicle_whose_position_wanders() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    let copter = Copter::start_with(port, |o| {
+        o.autopilot = Firmware::Px4;
+        // Twice real time: PX4's 1 s offboard-loss time stays well above
+        // the 10 Hz setpoint stream.
+        o.speed = 2.0;
+        o.position_noise = 0.05;
+    });
+    let fleet = fleet_of(dir.path(), "Drone1", port, "");
+    let mission =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/missions/paper/experiment_a.go");
+    let mut flight = Flight::start(&mission, &fleet, &dir.path().join("out"));
+
+    flight.wait_for("Drone1 finished Takeoff(1.5)", Duration::from_secs(120));
+    let start = copter.snapshot().position;
+    let mut corner = Vec3::new(start.x, start.y, 1.5);
+    for (leg, (dx, dy)) in [
+        ("FlyByX(1)", (1.0, 0.0)),
+        ("FlyByY(1)", (0.0, 1.0)),
+        ("FlyByX(-1)", (-1.0, 0.0)),
+        ("FlyByY(-1)", (0.0, -1.0)),
+    ] {
+        flight.wait_for(&format!("Drone1 finished {leg}"), Duration::from_secs(60));
+        corner = corner + Vec3::new(dx, dy, 0.0);
+        let at = copter.snapshot().position;
+        assert!(
+            at.distance(corner) <= 0.3,
+            "after {leg} the copter is at {at}, {:.2} m from the corner {corner}",
+            at.distance(corner)
+        );
+    }
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(120));
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    let landed = copter.snapshot();
+    assert!(landed.on_ground && !landed.armed, "{landed:?}");
+    let gap = (landed.position.x - start.x).hypot(landed.position.y - start.y);
+    assert!(
+        gap <= 0.3,
+        "the square did not close: landed {gap:.2} m from where it took off"
+    );
+}
+
+/// The adapter log's lines, as JSON.
+fn adapter_log(out: &Path, drone: &str) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join(format!("{drone}.adapter.jsonl")))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+#[test]
+fn a_real_vehicles_home_is_where_its_autopilot_says_in_the_fleets_one_frame() {
+    let origin = Wgs84::new(-35.363_261, 149.165_230, 584.0);
+    // The copter stands 10 m north of the fleet's origin.
+    let stands = LocalFrame::new(origin).to_wgs84(Vec3::new(10.0, 0.0, 0.0));
+    for (fleet_home, warned) in [
+        // The fleet file puts it at the origin: the check assumed a home
+        // 10 m off, and the crew is told before take-off.
+        ("x = 0.0, y = 0.0, z = 0.0".to_string(), true),
+        // The fleet file names where it stands: nothing to say.
+        (
+            format!(
+                "lat = {:.8}, lon = {:.8}, alt = 0.0",
+                stands.lat, stands.lon
+            ),
+            false,
+        ),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let port = free_udp_port();
+        let copter = Copter::start_with(port, |o| {
+            o.speed = 4.0;
+            o.home = stands;
+        });
+        let fleet = dir.path().join("fleet.toml");
+        std::fs::write(
+            &fleet,
+            format!(
+                "origin = {{ lat = {}, lon = {} }}\n\n[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\nhome = {{ {fleet_home} }}\n",
+                origin.lat, origin.lon
+            ),
+        )
+        .unwrap();
+        let out = dir.path().join("out");
+        let flight = Flight::start(&example("square.go"), &fleet, &out);
+        let (code, stdout, stderr) = flight.finish(Duration::from_secs(120));
+        assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+        assert_eq!(
+            stderr.contains("Copter warning: the autopilot puts the drone's home at (10.00, "),
+            warned,
+            "{stderr}"
+        );
+        if warned {
+            assert!(
+                stderr.contains("10.0 m from (0.00, 0.00, 0.00)"),
+                "{stderr}"
+            );
+        }
+        let noted = adapter_log(&out, "Copter").iter().any(|r| {
+            r["detail"].as_str().is_some_and(|d| {
+                d.contains("home in the fleet frame (10.00, ") && d.contains(" from HOME_POSITION ")
+            })
+        });
+        assert!(noted, "no home from HOME_POSITION in the adapter log");
+        drop(copter);
+    }
 }

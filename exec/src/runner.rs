@@ -220,6 +220,10 @@ async fn build_adapters(
                 // log and telemetry share the time line of the others.
                 let mut mavlink = MavlinkOptions {
                     home: fleet.home(d, index),
+                    // One geographic frame for the fleet: a real vehicle's
+                    // home is where its autopilot says, from the fleet's
+                    // origin (a drone's own setting may name another).
+                    fleet_origin: fleet.origin(),
                     log: log.clone(),
                     clock: Some(clock.clone()),
                     ..MavlinkOptions::default()

@@ -6,7 +6,7 @@ use eamos_mid::mavlink::dialect::{
     EkfStatusFlags, GpsFixType, MavAutopilot, MavDataStream, MavLandedState, MavMessage,
     MavModeFlag, MavState, MavSysStatusSensor, MavType, MavVtolState, EKF_STATUS_REPORT_DATA,
     EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, HEARTBEAT_DATA,
-    LOCAL_POSITION_NED_DATA, SYS_STATUS_DATA,
+    HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, SYS_STATUS_DATA,
 };
 use eamos_mid::FlightMode;
 
@@ -22,6 +22,7 @@ pub(crate) const STREAMABLE: &[(u32, MavDataStream)] = &[
     (32, MavDataStream::MAV_DATA_STREAM_POSITION),       // LOCAL_POSITION_NED
     (193, MavDataStream::MAV_DATA_STREAM_EXTRA3),        // EKF_STATUS_REPORT
     (245, MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS), // EXTENDED_SYS_STATE
+    (242, MavDataStream::MAV_DATA_STREAM_EXTRA3),        // HOME_POSITION
 ];
 
 impl Vehicle {
@@ -218,6 +219,20 @@ impl Vehicle {
                     vx: vel.north as f32,
                     vy: vel.east as f32,
                     vz: vel.down as f32,
+                })
+            }
+            // Home is set at the first 3D fix, where the copter stands.
+            242 => {
+                if !self.has_fix() {
+                    return None;
+                }
+                let (latitude, longitude, altitude) = self.o.home.to_e7();
+                MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+                    latitude,
+                    longitude,
+                    altitude,
+                    q: [1.0, 0.0, 0.0, 0.0],
+                    ..Default::default()
                 })
             }
             193 if self.o.autopilot == Firmware::Px4 => return None,

@@ -49,6 +49,8 @@ pub struct VehicleState {
     pub heartbeats: u64,
     pub local: Option<LocalPosition>,
     pub global: Option<Wgs84>,
+    /// The autopilot's own home (HOME_POSITION), once it said it.
+    pub home: Option<Wgs84>,
     /// Battery charge in percent, where the autopilot knows it.
     pub battery: Option<f64>,
     pub landed_state: Option<MavLandedState>,
@@ -86,6 +88,7 @@ impl VehicleState {
             heartbeats: 0,
             local: None,
             global: None,
+            home: None,
             battery: None,
             landed_state: None,
             readiness,
@@ -161,6 +164,9 @@ impl VehicleState {
             }
             MavMessage::GLOBAL_POSITION_INT(g) => {
                 self.global = Some(Wgs84::from_e7(g.lat, g.lon, g.alt));
+            }
+            MavMessage::HOME_POSITION(h) => {
+                self.home = Some(Wgs84::from_e7(h.latitude, h.longitude, h.altitude));
             }
             MavMessage::SYS_STATUS(s) if s.battery_remaining >= 0 => {
                 self.battery = Some(f64::from(s.battery_remaining));

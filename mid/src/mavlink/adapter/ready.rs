@@ -7,13 +7,17 @@ use tokio::time::{sleep_until, Instant};
 
 use eamos_geo::LocalFrame;
 
-use crate::api::{ActionError, CancellationToken};
+use crate::api::{ActionError, CancellationToken, Vec3};
 use crate::mavlink::dialect::MavCmd;
 use crate::mavlink::modes::ModeRole;
 
 use super::shared::{Check, Halt, Shared};
 use super::tasks::OFFBOARD_LEAD;
 use crate::mavlink::readiness::NotReady;
+
+/// How far (m) a real vehicle's home may lie from the fleet file's before
+/// the crew is told: GPS puts a copter within a metre or two.
+const HOME_GAP: f64 = 2.0;
 
 impl Shared {
     /// Waits for the autopilot's heartbeat.
@@ -72,6 +76,7 @@ impl Shared {
                 .await;
             match outcome {
                 Ok(None) => {
+                    self.ask_home(action).await;
                     self.set_anchor();
                     return Ok(());
                 }
@@ -99,6 +104,39 @@ impl Shared {
                 }
             }
         }
+    }
+
+    /// Asks for the autopilot's home (HOME_POSITION) when the fleet has a
+    /// geographic frame and the home has not come yet, and waits a moment
+    /// for it: the stream asked for at connection may not have brought it
+    /// by the time a fast vehicle is ready.
+    async fn ask_home(&self, action: &str) {
+        if self.options.fleet_origin.is_none() || self.frame().anchor.is_some() {
+            return;
+        }
+        if self.watched.borrow().vehicle.home.is_some() {
+            return;
+        }
+        let asked = self
+            .send_command(
+                action,
+                MavCmd::MAV_CMD_REQUEST_MESSAGE,
+                [242.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            )
+            .await;
+        if !matches!(asked, Ok(Ok(()))) {
+            return;
+        }
+        let _ = self
+            .wait(
+                Instant::now() + self.options.commands.ack_timeout,
+                &CancellationToken::new(),
+                |w| match w.vehicle.home {
+                    Some(_) => Check::Done(()),
+                    None => Check::Pending,
+                },
+            )
+            .await;
     }
 
     /// Asks the autopilot to run its pre-arm checks now and say why they
@@ -148,15 +186,39 @@ impl Shared {
             "ready; the mission frame's origin is N {:.2} E {:.2} D {:.2} in the EKF frame",
             local.position.north, local.position.east, local.position.down
         );
-        if let (Some(origin), Some(here)) = (self.options.fleet_origin, w.vehicle.global) {
-            frame.home = LocalFrame::new(origin).to_local(here);
+        // The autopilot's own home where it has said it, else where its GPS
+        // puts the drone now: the drone's home in the one fleet frame.
+        let reported = w
+            .vehicle
+            .home
+            .map(|h| (h, "HOME_POSITION"))
+            .or(w.vehicle.global.map(|g| (g, "GPS")));
+        let mut moved = None;
+        if let (Some(origin), Some((here, source))) = (self.options.fleet_origin, reported) {
+            let assumed = frame.home;
+            // Where it stands on the ground the fleet file describes: GPS
+            // heights are poor, and the origin need not carry the ground's.
+            frame.home = Vec3 {
+                z: assumed.z,
+                ..LocalFrame::new(origin).to_local(here)
+            };
             detail.push_str(&format!(
-                "; home in the fleet frame {} from GPS {:.7}, {:.7}",
+                "; home in the fleet frame {} from {source} {:.7}, {:.7}",
                 frame.home, here.lat, here.lon
             ));
+            let gap = (assumed - frame.home).horizontal_norm();
+            if gap > HOME_GAP {
+                moved = Some(format!(
+                    "the autopilot puts the drone's home at {} in the fleet frame ({source}), {gap:.1} m from {assumed}, where the fleet file puts it and the spatial check assumed it: correct the fleet file's home and check again",
+                    frame.home
+                ));
+            }
         }
         drop(frame);
         self.note(detail);
+        if let Some(moved) = moved {
+            self.warn(moved);
+        }
         self.publish_telemetry();
     }
 

@@ -26,6 +26,9 @@ pub const STREAMS: &[(u32, &str, f64)] = &[
     (33, "GLOBAL_POSITION_INT", 4.0),
     (193, "EKF_STATUS_REPORT", 2.0),
     (245, "EXTENDED_SYS_STATE", 2.0),
+    // Where the autopilot's own home is: a real vehicle's home in the
+    // fleet frame.
+    (242, "HOME_POSITION", 0.5),
 ];
 
 /// Folds every message from the vehicle into the watched state, logs what a
