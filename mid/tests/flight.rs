@@ -13,7 +13,7 @@ use tokio::time::timeout;
 use eamos_geo::{LocalFrame, Ned};
 use eamos_mid::api::{ActionCall, ActionError, Adapter, CancellationToken, FlightMode, Vec3};
 use eamos_mid::log::{AdapterEvent, LogRecord, MemorySink};
-use eamos_mid::mavlink::adapter::{MavlinkAdapter, MavlinkOptions};
+use eamos_mid::mavlink::adapter::{LostLinkCheck, MavlinkAdapter, MavlinkOptions};
 use eamos_mid::mavlink::address::ConnectAddress;
 use eamos_mid::mavlink::command::{command_long, CommandError, CommandPolicy, Target};
 use eamos_mid::mavlink::dialect::MavMessage;
@@ -95,6 +95,19 @@ async fn vehicle_until(
 
 fn near(a: Vec3, b: Vec3, tol: f64) -> bool {
     a.distance(b) <= tol
+}
+
+fn warnings(log: &MemorySink) -> Vec<String> {
+    log.records()
+        .into_iter()
+        .filter_map(|r| match r {
+            LogRecord::Adapter(a) => match a.event {
+                AdapterEvent::Warning { detail } => Some(detail),
+                _ => None,
+            },
+            _ => None,
+        })
+        .collect()
 }
 
 fn notes(log: &MemorySink) -> Vec<String> {
@@ -743,6 +756,64 @@ async fn when_the_ground_station_stops_streaming_a_flying_px4_vehicle_leaves_off
     })
     .await;
     assert!(s.armed && !s.on_ground, "it holds in the air: {s:?}");
+}
+
+#[tokio::test]
+async fn a_px4_vehicle_told_to_land_on_offboard_loss_lands_and_the_adapter_says_nothing_before_arming(
+) {
+    let r = rig(
+        |v| {
+            px4(v);
+            v.params = vec![("COM_OBL_RC_ACT".into(), 4.0)];
+        },
+        |_| {},
+    )
+    .await;
+    run(&r.adapter, "Arm", &[]).await.unwrap();
+    // Read before arming: COM_OBL_RC_ACT = 4 lands, so nothing to warn of.
+    assert!(warnings(&r.log).is_empty(), "{:?}", warnings(&r.log));
+    assert!(
+        notes(&r.log)
+            .iter()
+            .any(|n| n == "on a lost link the autopilot takes the drone over (COM_OF_LOSS_T = 1, COM_OBL_RC_ACT = 4)"),
+        "{:?}",
+        notes(&r.log)
+    );
+    run(&r.adapter, "Takeoff", &[2.0]).await.unwrap();
+    let Rig {
+        adapter, vehicle, ..
+    } = r;
+    drop(adapter);
+    let s = vehicle_until(&vehicle, "landed by the offboard-loss failsafe", |s| {
+        s.on_ground && !s.armed
+    })
+    .await;
+    assert_eq!(s.custom_mode, px4_mode(Px4Mode::AutoLand));
+}
+
+#[tokio::test]
+async fn arming_an_autopilot_that_would_leave_the_drone_alone_on_a_lost_link_warns_or_is_refused() {
+    // PX4 as it ships: COM_OBL_RC_ACT = 0 (Position mode), which without a
+    // pilot on the sticks holds in the air for nobody.
+    let r = rig(px4, |_| {}).await;
+    run(&r.adapter, "Arm", &[]).await.unwrap();
+    let w = warnings(&r.log);
+    assert!(
+        w.len() == 1 && w[0].starts_with("COM_OBL_RC_ACT is 0 (Position): 1 s after"),
+        "{w:?}"
+    );
+    // Asked only once: a second arming reads nothing again.
+    run(&r.adapter, "Disarm", &[]).await.unwrap();
+    run(&r.adapter, "Arm", &[]).await.unwrap();
+    assert_eq!(warnings(&r.log).len(), 1);
+
+    let r = rig(|_| {}, |a| a.lost_link = LostLinkCheck::Refuse).await;
+    let e = run(&r.adapter, "Arm", &[]).await.unwrap_err();
+    let ActionError::Refused { reason, .. } = &e else {
+        panic!("expected a refusal, got {e:?}");
+    };
+    assert!(reason.starts_with("FS_GCS_ENABLE is 0"), "{reason}");
+    assert!(!r.vehicle.snapshot().armed);
 }
 
 #[tokio::test]
