@@ -227,10 +227,16 @@ impl Vehicle {
                     return None;
                 }
                 let (latitude, longitude, altitude) = self.o.home.to_e7();
+                // Home stands at the kinematics' origin; its local position
+                // is relative to the EKF origin, like LOCAL_POSITION_NED.
+                let local = Ned::default() - self.o.ekf_origin_offset;
                 MavMessage::HOME_POSITION(HOME_POSITION_DATA {
                     latitude,
                     longitude,
                     altitude,
+                    x: local.north as f32,
+                    y: local.east as f32,
+                    z: local.down as f32,
                     q: [1.0, 0.0, 0.0, 0.0],
                     ..Default::default()
                 })

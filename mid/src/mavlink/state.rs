@@ -51,6 +51,10 @@ pub struct VehicleState {
     pub global: Option<Wgs84>,
     /// The autopilot's own home (HOME_POSITION), once it said it.
     pub home: Option<Wgs84>,
+    /// The same home in the EKF frame: the ground point the mission frame
+    /// starts from, which a restarted ground station finds again while
+    /// the drone flies.
+    pub home_local: Option<Ned>,
     /// Battery charge in percent, where the autopilot knows it.
     pub battery: Option<f64>,
     pub landed_state: Option<MavLandedState>,
@@ -89,6 +93,7 @@ impl VehicleState {
             local: None,
             global: None,
             home: None,
+            home_local: None,
             battery: None,
             landed_state: None,
             readiness,
@@ -167,6 +172,7 @@ impl VehicleState {
             }
             MavMessage::HOME_POSITION(h) => {
                 self.home = Some(Wgs84::from_e7(h.latitude, h.longitude, h.altitude));
+                self.home_local = Some(Ned::new(f64::from(h.x), f64::from(h.y), f64::from(h.z)));
             }
             MavMessage::SYS_STATUS(s) if s.battery_remaining >= 0 => {
                 self.battery = Some(f64::from(s.battery_remaining));

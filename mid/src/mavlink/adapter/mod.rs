@@ -237,7 +237,10 @@ impl Adapter for MavlinkAdapter {
     async fn run(&self, call: &ActionCall, cancel: CancellationToken) -> Result<(), ActionError> {
         let action = MultirotorAction::parse(call)?;
         let s = &self.shared;
-        let result = s.perform(action, &cancel).await;
+        let result = match s.find_frame(action.name(), &cancel).await {
+            Ok(()) => s.perform(action, &cancel).await,
+            Err(e) => Err(e),
+        };
         s.log(AdapterEvent::Completed {
             action: call.name.clone(),
             outcome: match &result {
@@ -280,7 +283,10 @@ impl Adapter for MavlinkAdapter {
             ));
         }
         let s = &self.shared;
-        let result = s.fly_to(action.name(), target, &cancel).await;
+        let result = match s.find_frame(action.name(), &cancel).await {
+            Ok(()) => s.fly_to(action.name(), target, &cancel).await,
+            Err(e) => Err(e),
+        };
         s.log(AdapterEvent::Completed {
             action: call.name.clone(),
             outcome: match &result {

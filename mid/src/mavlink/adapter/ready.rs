@@ -106,12 +106,11 @@ impl Shared {
         }
     }
 
-    /// Asks for the autopilot's home (HOME_POSITION) when the fleet has a
-    /// geographic frame and the home has not come yet, and waits a moment
-    /// for it: the stream asked for at connection may not have brought it
-    /// by the time a fast vehicle is ready.
-    async fn ask_home(&self, action: &str) {
-        if self.options.fleet_origin.is_none() || self.frame().anchor.is_some() {
+    /// Asks for the autopilot's home (HOME_POSITION) when it has not come
+    /// yet, and waits a moment for it: the stream asked for at connection
+    /// may not have brought it by the time a fast vehicle is ready.
+    pub(super) async fn ask_home(&self, action: &str) {
+        if self.frame().anchor.is_some() {
             return;
         }
         if self.watched.borrow().vehicle.home.is_some() {
@@ -172,19 +171,58 @@ impl Shared {
             .await;
     }
 
-    /// Fixes the mission frame on the ground point where the vehicle stands
-    /// the first time it is ready, and its home in the fleet frame.
+    /// Finds the mission frame again when the drone is already armed and
+    /// none is set: this ground station was restarted while the drone
+    /// flew (an agent resumed from its journal), so no arming will set it.
+    pub(super) async fn find_frame(
+        &self,
+        action: &str,
+        cancel: &CancellationToken,
+    ) -> Result<(), ActionError> {
+        if self.frame().anchor.is_some() {
+            return Ok(());
+        }
+        self.heard(action, cancel).await?;
+        if !self.watched.borrow().vehicle.armed() {
+            return Ok(());
+        }
+        let deadline = Instant::now() + self.options.ready_timeout;
+        self.wait(deadline, cancel, |w| match w.vehicle.local {
+            Some(_) => Check::Done(()),
+            None => Check::Pending,
+        })
+        .await
+        .map_err(|h| self.halt_error(action, h, || "LOCAL_POSITION_NED".to_string()))?;
+        self.ask_home(action).await;
+        self.set_anchor();
+        Ok(())
+    }
+
+    /// Fixes the mission frame on the autopilot's home (HOME_POSITION, in
+    /// the EKF frame), else on the ground point where the vehicle stands
+    /// the first time it is ready; and its home in the fleet frame. The
+    /// autopilot's home is what a ground station restarted in flight finds
+    /// again, so that a resumed motion flies to the journaled target.
     pub(super) fn set_anchor(&self) {
         let w = self.watched.borrow().clone();
         let mut frame = self.frame.lock().unwrap_or_else(|p| p.into_inner());
         if frame.anchor.is_some() {
             return;
         }
-        let Some(local) = w.vehicle.local else { return };
-        frame.anchor = Some(local.position);
+        let Some(anchor) = w.vehicle.home_local.or(w.vehicle.local.map(|l| l.position)) else {
+            return;
+        };
+        frame.anchor = Some(anchor);
         let mut detail = format!(
-            "ready; the mission frame's origin is N {:.2} E {:.2} D {:.2} in the EKF frame",
-            local.position.north, local.position.east, local.position.down
+            "ready; the mission frame's origin is N {:.2} E {:.2} D {:.2} in the EKF frame{}",
+            anchor.north,
+            anchor.east,
+            anchor.down,
+            if w.vehicle.home_local.is_some() {
+                " (the autopilot's home)"
+            } else {
+                " (where it stands)"
+            }
         );
         // The autopilot's own home where it has said it, else where its GPS
         // puts the drone now: the drone's home in the one fleet frame.
