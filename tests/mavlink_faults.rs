@@ -11,7 +11,9 @@
 //!   whose reported position wanders, as a real EKF's does: each leg
 //!   starts from the last target, and each ends settled on its corner;
 //! - a real vehicle's home is what its autopilot reports, in the fleet's
-//!   one frame, and a fleet file that put it elsewhere is named.
+//!   one frame, and a fleet file that put it elsewhere is named;
+//! - an abort (Ctrl-C) mid-flight lands the copter through its failsafe,
+//!   exactly once.
 //!
 //! The vehicle runs in the test's own process, so that the test can be
 //! the pilot (its RC mode switch) and the radio (silence); the mission
@@ -448,4 +450,53 @@ fn a_real_vehicles_home_is_where_its_autopilot_says_in_the_fleets_one_frame() {
         assert!(noted, "no home from HOME_POSITION in the adapter log");
         drop(copter);
     }
+}
+
+/// The mission log's records of `event`.
+fn mission_events(out: &Path, drone: &str, event: &str) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(out.join(format!("{drone}.mission.jsonl")))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|r| r["event"] == event)
+        .collect()
+}
+
+#[test]
+fn an_abort_mid_flight_lands_the_copter_through_its_failsafe_exactly_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    let copter = Copter::start(port, 4.0, &[]);
+    let fleet = fleet(dir.path(), port, "");
+    let out = dir.path().join("out");
+    let mut flight = Flight::start(&example("square.go"), &fleet, &out);
+    flight.wait_for("Copter started FlyByX(4)", Duration::from_secs(120));
+    let interrupted = Command::new("kill")
+        .args(["-INT", &flight.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(interrupted.success());
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(120));
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    let landed = copter.snapshot();
+    assert!(landed.on_ground && !landed.armed, "{landed:?}");
+    assert_eq!(copter.mode(), Some(CopterMode::Land));
+    // Short of the far corner: it landed where it was, not after the leg.
+    assert!(landed.position.x < 3.9, "{landed:?}");
+    let failsafes = mission_events(&out, "Copter", "failsafe");
+    assert_eq!(failsafes.len(), 1, "{failsafes:?}");
+    assert_eq!(failsafes[0]["failsafe"], "land");
+    let finished = mission_events(&out, "Copter", "failsafe_finished");
+    assert_eq!(finished.len(), 1, "{finished:?}");
+    assert_eq!(finished[0]["outcome"], "ok");
+    // One switch to LAND (custom mode 9) was commanded, no more.
+    let lands = adapter_log(&out, "Copter")
+        .into_iter()
+        .filter(|r| {
+            r["event"] == "command"
+                && r["detail"] == "MAV_CMD_DO_SET_MODE"
+                && r["args"][1].as_f64() == Some(f64::from(CopterMode::Land.custom_mode()))
+        })
+        .count();
+    assert_eq!(lands, 1);
 }
