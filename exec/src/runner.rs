@@ -182,10 +182,20 @@ async fn build_adapters(
     } else {
         None
     };
-    let clock = sim
-        .as_ref()
-        .map(SimFleet::clock)
-        .unwrap_or_else(MissionClock::wall);
+    // The mission clock: the simulator's when it flies a drone here; else
+    // the first MAVLink drone's autopilot's, so that a SITL run at a
+    // speed-up times Hover and PauseFor in its own seconds; else the wall.
+    let first_mavlink = drones
+        .iter()
+        .find(|d| fleet.entry(d).adapter == AdapterKind::Mavlink);
+    let (clock, mut feed) = match (&sim, first_mavlink) {
+        (Some(sim), _) => (sim.clock(), None),
+        (None, Some(_)) => {
+            let (clock, feed) = MissionClock::following();
+            (clock, Some(Arc::new(std::sync::Mutex::new(feed))))
+        }
+        (None, None) => (MissionClock::wall(), None),
+    };
     let mut adapters: BTreeMap<String, Arc<dyn Adapter>> = BTreeMap::new();
     let mut sims = BTreeMap::new();
     for d in drones {
@@ -226,6 +236,11 @@ async fn build_adapters(
                     fleet_origin: fleet.origin(),
                     log: log.clone(),
                     clock: Some(clock.clone()),
+                    clock_feed: if Some(d) == first_mavlink {
+                        feed.take()
+                    } else {
+                        None
+                    },
                     ..MavlinkOptions::default()
                 };
                 if let Some(settings) = &entry.mavlink {

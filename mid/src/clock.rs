@@ -23,6 +23,81 @@ enum ClockKind {
     Wall { origin: Instant },
     /// Simulated time published by the simulation's stepping task.
     Simulated { time: watch::Receiver<f64> },
+    /// An autopilot's own clock (see [`MissionClock::following`]).
+    Following { sample: watch::Receiver<Sample> },
+}
+
+/// The latest reading of a followed clock: mission time `at` the wall
+/// instant `seen`, advancing at `rate` mission seconds per wall second
+/// until the next reading.
+#[derive(Debug, Clone, Copy)]
+pub struct Sample {
+    at: f64,
+    seen: Instant,
+    rate: f64,
+}
+
+/// How long (wall) a followed clock holds still after a reading before it
+/// runs on by itself: readings come ten times a second or more, so it
+/// runs on only when the autopilot falls silent.
+const HOLD: Duration = Duration::from_millis(500);
+
+impl Sample {
+    fn now(&self) -> f64 {
+        let running = self.seen.elapsed().saturating_sub(HOLD);
+        self.at + running.as_secs_f64() * self.rate
+    }
+}
+
+/// Feeds a followed clock with an autopilot's time stamps (`time_boot_ms`
+/// of its telemetry): mission time then runs at the autopilot's pace, so a
+/// simulator run at a speed-up times every `Hover` and `PauseFor` in its
+/// own seconds. Between readings, and while the link is silent, time goes
+/// on at the last measured pace; it never runs backwards, and an
+/// autopilot that reboots (its clock starts again at zero) does not set it
+/// back.
+#[derive(Debug)]
+pub struct ClockFeed {
+    tx: watch::Sender<Sample>,
+    /// The autopilot's time and the wall instant of the reading that
+    /// started the current pace measurement.
+    window: Option<(f64, Instant)>,
+    /// The autopilot's time of the last reading.
+    last: Option<f64>,
+}
+
+impl ClockFeed {
+    /// Takes one reading of the autopilot's clock, in its seconds since
+    /// boot.
+    pub fn reading(&mut self, vehicle: f64) {
+        let now = Instant::now();
+        let previous = *self.tx.borrow();
+        let step = match self.last {
+            Some(last) if vehicle >= last => vehicle - last,
+            // The first reading, or a reboot: no step to take.
+            _ => 0.0,
+        };
+        self.last = Some(vehicle);
+        let mut rate = previous.rate;
+        match self.window {
+            Some((v0, w0)) if vehicle >= v0 => {
+                let wall = now.duration_since(w0).as_secs_f64();
+                // Measured over a second or more: readings come in bursts.
+                if wall >= 1.0 {
+                    rate = ((vehicle - v0) / wall).clamp(0.01, 1000.0);
+                    self.window = Some((vehicle, now));
+                }
+            }
+            _ => self.window = Some((vehicle, now)),
+        }
+        // What the autopilot says passed, unless the clock already ran
+        // further on by itself during a silence: it never goes back.
+        self.tx.send_replace(Sample {
+            at: (previous.at + step).max(previous.now()),
+            seen: now,
+            rate,
+        });
+    }
 }
 
 impl MissionClock {
@@ -50,6 +125,27 @@ impl MissionClock {
         }
     }
 
+    /// A clock that follows an autopilot's own time, fed by the returned
+    /// [`ClockFeed`]; until the first reading it runs at the wall clock's
+    /// pace.
+    pub fn following() -> (Self, ClockFeed) {
+        let (tx, sample) = watch::channel(Sample {
+            at: 0.0,
+            seen: Instant::now(),
+            rate: 1.0,
+        });
+        (
+            Self {
+                kind: ClockKind::Following { sample },
+            },
+            ClockFeed {
+                tx,
+                window: None,
+                last: None,
+            },
+        )
+    }
+
     pub fn is_simulated(&self) -> bool {
         matches!(self.kind, ClockKind::Simulated { .. })
     }
@@ -59,6 +155,7 @@ impl MissionClock {
         match &self.kind {
             ClockKind::Wall { origin } => origin.elapsed().as_secs_f64(),
             ClockKind::Simulated { time } => *time.borrow(),
+            ClockKind::Following { sample } => sample.borrow().now(),
         }
     }
 
@@ -83,6 +180,29 @@ impl MissionClock {
                     }
                     if time.changed().await.is_err() {
                         std::future::pending::<()>().await;
+                    }
+                }
+            }
+            ClockKind::Following { sample } => {
+                let mut sample = sample.clone();
+                loop {
+                    let s = *sample.borrow_and_update();
+                    let left = t.min(1.0e9) - s.now();
+                    if left <= 0.0 {
+                        return;
+                    }
+                    // Wake when the present pace says t is reached, or
+                    // earlier when a new reading changes the pace.
+                    let wall = Duration::from_secs_f64((left / s.rate).min(1.0e9));
+                    tokio::select! {
+                        _ = tokio::time::sleep(wall) => {}
+                        changed = sample.changed() => {
+                            if changed.is_err() {
+                                // Nobody feeds it any more: time goes on at
+                                // the last pace.
+                                tokio::time::sleep(wall).await;
+                            }
+                        }
                     }
                 }
             }
@@ -135,6 +255,54 @@ mod tests {
         let wall = MissionClock::wall();
         let far = tokio::time::timeout(Duration::from_secs(5), wall.sleep_until(1.0e300)).await;
         assert!(far.is_err(), "still sleeping after 5 s");
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_followed_clock_runs_at_the_autopilots_pace_and_never_back() {
+        let (clock, mut feed) = MissionClock::following();
+        assert!(!clock.is_simulated());
+        // An autopilot eight times as fast as the wall clock, read at 10 Hz.
+        let mut boot = 100.0;
+        feed.reading(boot);
+        for _ in 0..30 {
+            tokio::time::advance(Duration::from_millis(100)).await;
+            boot += 0.8;
+            feed.reading(boot);
+        }
+        // 24 s of its time in 3 s of the wall's.
+        assert!((clock.now() - 24.0).abs() < 0.2, "{}", clock.now());
+        // Silent, it holds for half a second, then goes on at that pace.
+        let sleeper = tokio::spawn({
+            let clock = clock.clone();
+            async move { clock.sleep(8.0).await }
+        });
+        let wall = |ms: u64| async move {
+            for _ in 0..ms / 10 {
+                tokio::time::advance(Duration::from_millis(10)).await;
+                tokio::task::yield_now().await;
+            }
+        };
+        wall(900).await;
+        assert!(
+            !sleeper.is_finished(),
+            "8 s of its time in 0.9 s of the wall's"
+        );
+        wall(700).await;
+        assert!(
+            sleeper.is_finished(),
+            "8 s of its time took over 1.6 s of the wall's"
+        );
+        // A reboot starts its clock at zero again; mission time goes on.
+        let before = clock.now();
+        feed.reading(0.5);
+        assert!(clock.now() >= before);
+        tokio::time::advance(Duration::from_millis(100)).await;
+        feed.reading(1.3);
+        assert!(
+            clock.now() >= before + 0.7,
+            "{} after {before}",
+            clock.now()
+        );
     }
 
     #[tokio::test(start_paused = true)]

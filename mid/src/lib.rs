@@ -27,7 +27,7 @@ pub use api::{
     evaluate_property, ActionCall, ActionError, Adapter, AdapterInfo, Axis, CancellationToken,
     Control, FlightMode, MultirotorAction, PropertyArg, PropertyError, Telemetry, Value, Vec3,
 };
-pub use clock::MissionClock;
+pub use clock::{ClockFeed, MissionClock};
 pub use failsafe::Failsafe;
 pub use log::{LogRecord, LogSink, MemorySink, NullSink, SharedSink};
 pub use sim::{Airframe, SimConfig, SimDrone, SimDroneSpec, SimError, SimFleet};

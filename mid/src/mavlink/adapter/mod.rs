@@ -78,6 +78,7 @@ mod ready;
 mod shared;
 mod takeoff;
 mod tasks;
+mod time;
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -166,6 +167,7 @@ impl MavlinkAdapter {
             frame: Mutex::new(FrameState { anchor: None, home }),
             flight: Mutex::new(Flight::default()),
             offboard: Mutex::new(None),
+            pace: Mutex::new(None),
             commands: tokio::sync::Mutex::new(()),
             stop: CancellationToken::new(),
         });

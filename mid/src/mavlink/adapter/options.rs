@@ -8,7 +8,7 @@ use std::time::Duration;
 use eamos_geo::Wgs84;
 
 use crate::api::Vec3;
-use crate::clock::MissionClock;
+use crate::clock::{ClockFeed, MissionClock};
 use crate::log::{NullSink, SharedSink};
 use crate::mavlink::address::AddressError;
 use crate::mavlink::command::CommandPolicy;
@@ -58,6 +58,10 @@ pub struct MavlinkOptions {
     /// Mission time; wall time from connection unless given (a fleet shares
     /// one origin).
     pub clock: Option<MissionClock>,
+    /// Feeds the autopilot's time stamps to a clock that follows it (see
+    /// [`MissionClock::following`]): the fleet's mission clock when this
+    /// drone's autopilot keeps it.
+    pub clock_feed: Option<Arc<std::sync::Mutex<ClockFeed>>>,
     /// What to do before the first arming when a lost link would leave
     /// the drone with nobody in charge (see `link_loss.rs`).
     pub lost_link: LostLinkCheck,
@@ -117,6 +121,7 @@ impl Default for MavlinkOptions {
             motion_margin: Duration::from_secs(30),
             rearm_for_takeoff: true,
             clock: None,
+            clock_feed: None,
             lost_link: LostLinkCheck::Warn,
             log: Arc::new(NullSink),
         }

@@ -67,6 +67,9 @@ pub(super) struct Shared {
     /// PX4: the setpoint streamed to keep OFFBOARD alive (EKF frame), and
     /// since when the stream runs.
     pub(super) offboard: Mutex<Option<(Ned, Instant)>>,
+    /// The autopilot's time and the mission time of the first reading,
+    /// and whether a different pace was said (see `time.rs`).
+    pub(super) pace: Mutex<Option<(f64, f64, bool)>>,
     pub(super) commands: tokio::sync::Mutex<()>,
     pub(super) stop: CancellationToken,
 }

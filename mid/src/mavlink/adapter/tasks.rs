@@ -71,6 +71,9 @@ pub(super) async fn receive_task(s: Arc<Shared>) {
         if came_back {
             s.note("the link to the vehicle is back");
         }
+        if let Some(boot) = boot_seconds(&received.message) {
+            s.autopilot_time(boot);
+        }
         let autopilot = s.autopilot();
         for change in changes {
             match change {
@@ -110,6 +113,19 @@ pub(super) async fn receive_task(s: Arc<Shared>) {
             }
         }
     }
+}
+
+/// The autopilot's own time in a message that carries it, seconds since
+/// its boot.
+fn boot_seconds(message: &MavMessage) -> Option<f64> {
+    let ms = match message {
+        MavMessage::LOCAL_POSITION_NED(m) => m.time_boot_ms,
+        MavMessage::GLOBAL_POSITION_INT(m) => m.time_boot_ms,
+        MavMessage::SYSTEM_TIME(m) => m.time_boot_ms,
+        MavMessage::ATTITUDE(m) => m.time_boot_ms,
+        _ => return None,
+    };
+    Some(f64::from(ms) / 1000.0)
 }
 
 /// A ground station says it is there once a second; ArduPilot's GCS
