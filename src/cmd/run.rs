@@ -217,7 +217,12 @@ pub fn run(args: Args) -> ExitCode {
     for e in &report.log_errors {
         eprintln!("warning: {e}");
     }
-    print_summary(&slices, &report, &out, args.speed);
+    print_summary(
+        &slices,
+        &report,
+        &out,
+        &clock_of(&fleet, &shown, args.speed),
+    );
     if report
         .reports
         .iter()
@@ -394,7 +399,25 @@ fn continue_line(c: &(u64, u64)) -> String {
     format!("{} sent, {} received", c.0, c.1)
 }
 
-fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
+/// Whose clock the run kept, for the summary: the simulator's at
+/// `--speed` when it flew a drone here, else the first autopilot's (see
+/// the runner), else the wall's.
+fn clock_of(fleet: &eamos_fleet::Fleet, shown: &[String], speed: f64) -> String {
+    let adapters: Vec<eamos_fleet::AdapterKind> = shown
+        .iter()
+        .filter(|p| p.as_str() != GCS)
+        .map(|d| fleet.entry(d).adapter)
+        .collect();
+    if adapters.contains(&eamos_fleet::AdapterKind::Sim) {
+        format!("speed {speed}")
+    } else if adapters.is_empty() {
+        "wall clock".to_string()
+    } else {
+        "the autopilot's clock".to_string()
+    }
+}
+
+fn print_summary(slices: &Slices, report: &RunReport, out: &Path, clock: &str) {
     let longest = report
         .reports
         .iter()
@@ -405,7 +428,7 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, speed: f64) {
         .iter()
         .all(|r| r.outcome == Outcome::Completed);
     println!(
-        "{}: {} after {:.1} s of mission time ({:.1} s wall, speed {speed})",
+        "{}: {} after {:.1} s of mission time ({:.1} s wall, {clock})",
         slices.mission,
         if done {
             "completed"
