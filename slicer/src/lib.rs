@@ -132,7 +132,7 @@ pub mod stats;
 pub mod wire;
 
 pub use codec::MAGIC;
-pub use distribute::{net_id, slice, slice_as, Slices};
+pub use distribute::{cut_along_owners, net_id, slice, slice_as, Slices};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};
