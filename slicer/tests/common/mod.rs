@@ -42,6 +42,7 @@ pub const PAPER: &[&str] = &[
 ];
 
 pub mod gen;
+pub mod mutate;
 
 
 use eamos_slicer::equivalence::{Budget, Verdict};
