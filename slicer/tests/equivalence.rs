@@ -26,6 +26,7 @@ mod common;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use eamos_lang::hir::Stmt;
 use eamos_petri::net::{ArcKind, Net, Owner, TransitionKind};
 use eamos_slicer::bound::lower_bound;
 use eamos_slicer::compose::compose;
@@ -121,20 +122,67 @@ fn the_composed_slices_of_random_missions_have_the_traces_of_the_mission_net() {
 }
 
 #[test]
+fn the_slicer_never_claims_fewer_bridges_than_the_lower_bound() {
+    // Missions without conditions or loops, where the bound is defined
+    // (the property above sees few of them).
+    let (bounded, at_bound) = (AtomicUsize::new(0), AtomicUsize::new(0));
+    common::run(300, &common::gen::plain_mission(), |case| {
+        let (mission, net) = common::compiled(&case)?;
+        let slices = slice(&net).map_err(|e| format!("slicing failed: {e}"))?;
+        // Awaits that wait for each other have no bound to speak of.
+        let Some(bound) = lower_bound(&mission) else {
+            return Ok(());
+        };
+        if slices.bridge_count() < bound {
+            return Err(format!(
+                "{} bridges, fewer than the lower bound {bound}: the bound or the slicing is wrong",
+                slices.bridge_count()
+            ));
+        }
+        bounded.fetch_add(1, Ordering::Relaxed);
+        if slices.bridge_count() == bound {
+            at_bound.fetch_add(1, Ordering::Relaxed);
+        }
+        Ok(())
+    });
+    let bounded = bounded.into_inner();
+    eprintln!(
+        "{} of {bounded} missions without conditions or loops sliced with exactly the lower bound",
+        at_bound.into_inner(),
+    );
+    assert!(bounded >= 100, "only {bounded} missions had a bound");
+}
+
+#[test]
 fn the_generated_missions_use_what_the_language_offers() {
     // A generator that lost a construct would leave the property above
     // untested for it: count them over a fixed sample.
     use proptest::strategy::{Strategy, ValueTree};
     let mut runner = proptest::test_runner::TestRunner::deterministic();
     let mut text = String::new();
+    let (mut awaits_in_loops, mut blocks_called_again) = (0, 0);
     for _ in 0..300 {
         let case = common::gen::mission()
             .new_tree(&mut runner)
             .expect("a mission")
             .current();
-        assert!(case.mission.is_ok(), "refused:{case:?}");
+        let Ok(mission) = &case.mission else {
+            panic!("refused:{case:?}");
+        };
         text.push_str(&case.source);
+        let mut calls = std::collections::BTreeMap::new();
+        mission
+            .root
+            .walk_blocks(&mut |b| *calls.entry(b.name.clone()).or_insert(0) += 1);
+        mission.root.walk(&mut |s| {
+            if let Stmt::Repeat { body, .. } | Stmt::RepeatFor { body, .. } = s {
+                body.walk(&mut |s| awaits_in_loops += matches!(s, Stmt::Await { .. }) as usize)
+            }
+        });
+        blocks_called_again += calls.values().filter(|&&n| n > 1).count();
     }
+    assert!(awaits_in_loops > 0, "no Await inside a loop");
+    assert!(blocks_called_again > 0, "no block called twice");
     for needle in [
         "PAR_",
         "If(",

@@ -254,6 +254,41 @@ pub fn mission_of(size: Size) -> impl Strategy<Value = Case> {
         })
 }
 
+/// A mission of the full size without conditions or loops: what the lower
+/// bound of bridges is defined for.
+pub fn plain_mission() -> impl Strategy<Value = Case> {
+    spec(FULL)
+        .prop_map(|mut s| {
+            s.root = s.root.into_iter().map(plain).collect();
+            s.shared = s.shared.into_iter().map(plain).collect();
+            for (_, stmts) in &mut s.library {
+                stmts.retain(|l| !matches!(l, L::PauseUntilHigh | L::PauseWhileLow));
+                stmts.push(L::Photo);
+            }
+            compile(&write(&s))
+        })
+        .prop_filter("too many action instances", |c| {
+            c.mission
+                .as_ref()
+                .map_or(true, |m| actions(&m.root) <= MAX_ACTIONS)
+        })
+}
+
+/// `g` with every condition and loop replaced by what it runs.
+fn plain(g: G) -> G {
+    let b = |g: Box<G>| plain(*g);
+    match g {
+        G::Pause(..) => G::PauseFor(0),
+        G::Seq(v) => G::Seq(v.into_iter().map(plain).collect()),
+        G::Par(v) => G::Par(v.into_iter().map(plain).collect()),
+        G::If(_, t, e) | G::Repeat(_, _, t, e) => {
+            G::Seq(std::iter::once(b(t)).chain(e.map(b)).collect())
+        }
+        G::Wait(_, _, t) | G::RepeatFor(_, t) | G::Do(_, _, t) => b(t),
+        other => other,
+    }
+}
+
 /// A mission of the full size.
 pub fn mission() -> impl Strategy<Value = Case> {
     mission_of(FULL)

@@ -44,7 +44,6 @@ pub const PAPER: &[&str] = &[
 pub mod gen;
 pub mod mutate;
 
-
 use eamos_slicer::equivalence::{Budget, Verdict};
 use proptest::strategy::Strategy;
 use proptest::test_runner::{Config, TestCaseError, TestError, TestRunner};
