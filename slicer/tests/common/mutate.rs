@@ -2,24 +2,30 @@
 //! slicer with one kind of bug would have produced.
 //!
 //! A mutant changes a step that fires in some run of the right slices (the
-//! sites are taken from [`eamos_slicer::equivalence::explore`]),
-//! so that it changes something a run does. A change can still leave the
-//! mission's behaviour as it was (swapping two actions a drone runs side by
-//! side, flipping the guard of an `If` whose branches both do nothing
-//! visible). Where that can happen the mutant carries the same change made
-//! to the mission net (`analog`): the slicer never looks at what it changes
-//! (labels, guards, delays, the final place), so the mutant is the slicing
-//! of that changed mission, and it is equivalent exactly when the changed
-//! mission is equivalent to the mission. Mutants without an analog (a
-//! dropped bridge, an action on another drone) must always be told apart.
+//! sites are taken from [`eamos_slicer::equivalence::explore`]), so that it
+//! changes something a run does. A change can still leave the mission's
+//! behaviour as it was (swapping two actions a drone runs side by side, a
+//! bridge whose token nothing visible waits for). Where that can happen the
+//! mutant carries the same change made to the mission net (`analog`): the
+//! slicer never looks at what the change touches (labels, guards, delays,
+//! the final place, which arcs exist), so the mutant is the slicing of that
+//! changed mission, and it is equivalent exactly when the changed mission
+//! is equivalent to the mission. A dropped bridge's analog drops the
+//! mission's arcs the bridge stands for (for a fan-out every arc it fans
+//! out, for a forward every arc it forwards; a pre-join's join never
+//! fires). A moved action has no analog: the drone that runs it differs, so
+//! it must always be told apart.
+//!
+//! A dropped end notice is an owner whose end is never marked: it never
+//! tells the others, so nobody stops.
 
 use std::collections::{BTreeMap, BTreeSet};
 
 use eamos_lang::hir::DroneId;
 use eamos_petri::net::{
-    ActionRef, ArcKind, GuardKind, Net, Node, Owner, PlaceKind, TransitionKind,
+    ActionRef, ArcKind, GuardKind, Net, Node, Owner, PlaceKind, Transition, TransitionKind,
 };
-use eamos_slicer::{cut_along_owners, Slice, Slices};
+use eamos_slicer::{cut_along_owners, Slice, SliceTransition, Slices};
 use petgraph::visit::EdgeRef;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -59,194 +65,227 @@ pub fn mutant(
     fired: &BTreeSet<String>,
     pick: usize,
 ) -> Option<Mutant> {
-    let fires = |st: &eamos_slicer::SliceTransition| fired.contains(&st.transition.id);
-    let choose = |n: usize| (n > 0).then(|| pick % n);
+    let at = Sites { fired, pick };
+    let (site, slices, analog) = match kind {
+        Kind::DropBridge => drop_bridge(net, s, &at)?,
+        Kind::SwapActions => swap_actions(net, s, &at)?,
+        Kind::MoveAction => return move_action(net, s, fired, pick),
+        Kind::FlipGuard => change_transition(net, s, &at, &FlipGuard)?,
+        Kind::DropDelay => change_transition(net, s, &at, &DropDelay)?,
+        Kind::DropEndNotice => drop_end_notice(net, s, &at)?,
+    };
+    Some(Mutant {
+        kind,
+        site,
+        slices,
+        analog,
+    })
+}
+
+type Made = (String, Vec<Slice>, Option<Net>);
+
+/// Which steps fire, and which of the candidate sites to take.
+struct Sites<'a> {
+    fired: &'a BTreeSet<String>,
+    pick: usize,
+}
+
+impl Sites<'_> {
+    fn fires(&self, t: &SliceTransition) -> bool {
+        self.fired.contains(&t.transition.id)
+    }
+
+    fn choose<T: Copy>(&self, sites: &[T]) -> Option<T> {
+        (!sites.is_empty()).then(|| sites[self.pick % sites.len()])
+    }
+}
+
+fn drop_bridge(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
     let mut slices = s.slices.clone();
-    match kind {
-        Kind::DropBridge => {
-            let sites: Vec<(usize, usize)> = slices
-                .iter()
-                .enumerate()
-                .flat_map(|(i, sl)| {
-                    (0..sl.bridges_out.len())
-                        .filter(|&b| fires(&sl.transitions[sl.bridges_out[b].transition as usize]))
-                        .map(move |b| (i, b))
-                })
-                .collect();
-            let (i, b) = sites[choose(sites.len())?];
-            let out = slices[i].bridges_out.remove(b);
-            let r = slices.iter().position(|x| x.drone == out.to)?;
-            slices[r].bridges_in.retain(|x| x.id != out.id);
-            for k in [i, r] {
-                let sl = &mut slices[k];
-                let peers: BTreeSet<String> = sl
-                    .bridges_in
-                    .iter()
-                    .map(|b| b.from.clone())
-                    .chain(sl.bridges_out.iter().map(|b| b.to.clone()))
-                    .collect();
-                sl.peers = peers.into_iter().collect();
-            }
-            let sender = &s.slices[i].transitions[out.transition as usize]
-                .transition
-                .id;
-            let inbox = s.slices[r]
-                .bridges_in
-                .iter()
-                .find(|b| b.id == out.id)?
-                .inbox;
-            let inbox = &s.slices[r].places[inbox as usize].id;
-            let analog = Some(without_bridge(net, &s.distributed, sender, inbox)?);
-            let site = format!("bridge {} from {} to {}", out.id, s.slices[i].drone, out.to);
-            Some(Mutant {
-                kind,
-                site,
-                slices,
-                analog,
+    let sites: Vec<(usize, usize)> = slices
+        .iter()
+        .enumerate()
+        .flat_map(|(i, sl)| {
+            (0..sl.bridges_out.len())
+                .filter(|&b| at.fires(&sl.transitions[sl.bridges_out[b].transition as usize]))
+                .map(move |b| (i, b))
+        })
+        .collect();
+    let (i, b) = at.choose(&sites)?;
+    let out = slices[i].bridges_out.remove(b);
+    let r = slices.iter().position(|x| x.drone == out.to)?;
+    slices[r].bridges_in.retain(|x| x.id != out.id);
+    // Consistent peer lists, so that only the behaviour can give it away.
+    for k in [i, r] {
+        let sl = &mut slices[k];
+        let peers: BTreeSet<String> = sl
+            .bridges_in
+            .iter()
+            .map(|b| b.from.clone())
+            .chain(sl.bridges_out.iter().map(|b| b.to.clone()))
+            .collect();
+        sl.peers = peers.into_iter().collect();
+    }
+    let sender = &s.slices[i].transitions[out.transition as usize]
+        .transition
+        .id;
+    let inbox = s.slices[r]
+        .bridges_in
+        .iter()
+        .find(|b| b.id == out.id)?
+        .inbox;
+    let inbox = &s.slices[r].places[inbox as usize].id;
+    let analog = without_bridge(net, &s.distributed, sender, inbox)?;
+    let site = format!("bridge {} from {} to {}", out.id, s.slices[i].drone, out.to);
+    Some((site, slices, Some(analog)))
+}
+
+/// Two action instances of one drone that both start trade places.
+fn swap_actions(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
+    let mut slices = s.slices.clone();
+    let mut sites = Vec::new();
+    for (i, sl) in slices.iter().enumerate() {
+        let started: Vec<u32> = sl
+            .transitions
+            .iter()
+            .filter(|t| at.fires(t))
+            .filter_map(|t| match &t.transition.kind {
+                TransitionKind::ActionStart(a) => Some(a.instance),
+                _ => None,
             })
-        }
-        Kind::SwapActions => {
-            // Pairs of action instances of one drone that both start.
-            let mut sites = Vec::new();
-            for (i, sl) in slices.iter().enumerate() {
-                let started: Vec<u32> = sl
-                    .transitions
-                    .iter()
-                    .filter(|t| fires(t))
-                    .filter_map(|t| match &t.transition.kind {
-                        TransitionKind::ActionStart(a) => Some(a.instance),
-                        _ => None,
-                    })
-                    .collect();
-                for (x, &a) in started.iter().enumerate() {
-                    for &b in &started[x + 1..] {
-                        sites.push((i, a, b));
-                    }
-                }
+            .collect();
+        for (x, &a) in started.iter().enumerate() {
+            for &b in &started[x + 1..] {
+                sites.push((i, a, b));
             }
-            let (i, a, b) = sites[choose(sites.len())?];
-            let refs = action_refs(net);
-            let swap = |r: &mut ActionRef| {
-                if r.instance == a {
-                    *r = refs[&b].clone();
-                } else if r.instance == b {
-                    *r = refs[&a].clone();
-                }
-            };
-            let sl = &mut slices[i];
-            for t in &mut sl.transitions {
-                action_of(&mut t.transition.kind).map(swap);
-            }
-            for p in &mut sl.places {
-                if let PlaceKind::Running(r) = &mut p.kind {
-                    swap(r);
-                }
-            }
-            let mut analog = net.clone();
-            for n in analog.graph.node_weights_mut() {
-                match n {
-                    Node::Transition(t) => {
-                        action_of(&mut t.kind).map(swap);
-                    }
-                    Node::Place(p) => {
-                        if let PlaceKind::Running(r) = &mut p.kind {
-                            swap(r)
-                        }
-                    }
-                }
-            }
-            let site = format!("actions #{a} and #{b} of {}", sl.drone);
-            Some(Mutant {
-                kind,
-                site,
-                slices,
-                analog: Some(analog),
-            })
-        }
-        Kind::MoveAction => move_action(net, s, fired, pick),
-        Kind::FlipGuard | Kind::DropDelay => {
-            let applies = |t: &eamos_petri::Transition| match kind {
-                Kind::FlipGuard => t
-                    .guard
-                    .as_ref()
-                    .is_some_and(|g| matches!(g.kind, GuardKind::Cond { .. })),
-                _ => t.delay.is_some(),
-            };
-            let sites: Vec<(usize, usize)> = slices
-                .iter()
-                .enumerate()
-                .flat_map(|(i, sl)| {
-                    (0..sl.transitions.len())
-                        .filter(|&k| {
-                            fires(&sl.transitions[k]) && applies(&sl.transitions[k].transition)
-                        })
-                        .map(move |k| (i, k))
-                })
-                .collect();
-            let (i, k) = sites[choose(sites.len())?];
-            let change = |t: &mut eamos_petri::Transition| match kind {
-                Kind::FlipGuard => {
-                    if let Some(GuardKind::Cond { negated, .. }) =
-                        t.guard.as_mut().map(|g| &mut g.kind)
-                    {
-                        *negated = !*negated;
-                    }
-                }
-                _ => t.delay = None,
-            };
-            let t = &mut slices[i].transitions[k].transition;
-            change(t);
-            let id = t.id.clone();
-            let mut analog = net.clone();
-            let v = analog.find(&id)?;
-            if let Node::Transition(t) = &mut analog.graph[v] {
-                change(t);
-            }
-            let site = format!(
-                "`{}` on {}",
-                slices[i].transitions[k].transition.label, slices[i].drone
-            );
-            Some(Mutant {
-                kind,
-                site,
-                slices,
-                analog: Some(analog),
-            })
-        }
-        Kind::DropEndNotice => {
-            let sites: Vec<usize> = (0..slices.len())
-                .filter(|&i| {
-                    let sl = &slices[i];
-                    sl.final_place.is_some_and(|f| {
-                        sl.transitions
-                            .iter()
-                            .any(|t| fires(t) && t.produce.iter().any(|p| p.place == f))
-                    })
-                })
-                .collect();
-            let i = sites[choose(sites.len())?];
-            let f = slices[i].final_place?;
-            for t in &mut slices[i].transitions {
-                t.produce.retain(|p| p.place != f);
-            }
-            let mut analog = net.clone();
-            let into_final: Vec<_> = analog
-                .graph
-                .edges_directed(analog.final_place, petgraph::Direction::Incoming)
-                .map(|e| e.id())
-                .collect();
-            for e in into_final.into_iter().rev() {
-                analog.graph.remove_edge(e);
-            }
-            let site = format!("the end notice of {}", slices[i].drone);
-            Some(Mutant {
-                kind,
-                site,
-                slices,
-                analog: Some(analog),
-            })
         }
     }
+    let (i, a, b) = at.choose(&sites)?;
+    let refs = action_refs(net);
+    let swap = |r: &mut ActionRef| {
+        if r.instance == a {
+            *r = refs[&b].clone();
+        } else if r.instance == b {
+            *r = refs[&a].clone();
+        }
+    };
+    let swap_in = |n: &mut Node| match n {
+        Node::Transition(t) => {
+            if let Some(r) = action_of(&mut t.kind) {
+                swap(r)
+            }
+        }
+        Node::Place(p) => {
+            if let PlaceKind::Running(r) = &mut p.kind {
+                swap(r)
+            }
+        }
+    };
+    let sl = &mut slices[i];
+    for t in &mut sl.transitions {
+        if let Some(r) = action_of(&mut t.transition.kind) {
+            swap(r)
+        }
+    }
+    for p in &mut sl.places {
+        if let PlaceKind::Running(r) = &mut p.kind {
+            swap(r)
+        }
+    }
+    let mut analog = net.clone();
+    analog.graph.node_weights_mut().for_each(swap_in);
+    let site = format!("actions #{a} and #{b} of {}", sl.drone);
+    Some((site, slices, Some(analog)))
+}
+
+/// A change to one transition, the same in a slice and in the mission.
+trait Change {
+    fn applies(&self, t: &Transition) -> bool;
+    fn apply(&self, t: &mut Transition);
+}
+
+struct FlipGuard;
+
+impl Change for FlipGuard {
+    fn applies(&self, t: &Transition) -> bool {
+        t.guard
+            .as_ref()
+            .is_some_and(|g| matches!(g.kind, GuardKind::Cond { .. }))
+    }
+
+    fn apply(&self, t: &mut Transition) {
+        if let Some(GuardKind::Cond { negated, .. }) = t.guard.as_mut().map(|g| &mut g.kind) {
+            *negated = !*negated;
+        }
+    }
+}
+
+struct DropDelay;
+
+impl Change for DropDelay {
+    fn applies(&self, t: &Transition) -> bool {
+        t.delay.is_some()
+    }
+
+    fn apply(&self, t: &mut Transition) {
+        t.delay = None;
+    }
+}
+
+fn change_transition(net: &Net, s: &Slices, at: &Sites, change: &dyn Change) -> Option<Made> {
+    let mut slices = s.slices.clone();
+    let sites: Vec<(usize, usize)> = slices
+        .iter()
+        .enumerate()
+        .flat_map(|(i, sl)| {
+            (0..sl.transitions.len())
+                .filter(|&k| {
+                    let t = &sl.transitions[k];
+                    at.fires(t) && change.applies(&t.transition)
+                })
+                .map(move |k| (i, k))
+        })
+        .collect();
+    let (i, k) = at.choose(&sites)?;
+    let t = &mut slices[i].transitions[k].transition;
+    change.apply(t);
+    let mut analog = net.clone();
+    let v = analog.find(&t.id)?;
+    if let Node::Transition(t) = &mut analog.graph[v] {
+        change.apply(t);
+    }
+    let site = format!("`{}` on {}", t.label, s.slices[i].drone);
+    Some((site, slices, Some(analog)))
+}
+
+fn drop_end_notice(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
+    let mut slices = s.slices.clone();
+    let sites: Vec<usize> = (0..slices.len())
+        .filter(|&i| {
+            let sl = &slices[i];
+            sl.final_place.is_some_and(|f| {
+                sl.transitions
+                    .iter()
+                    .any(|t| at.fires(t) && t.produce.iter().any(|p| p.place == f))
+            })
+        })
+        .collect();
+    let i = at.choose(&sites)?;
+    let f = slices[i].final_place?;
+    for t in &mut slices[i].transitions {
+        t.produce.retain(|p| p.place != f);
+    }
+    let mut analog = net.clone();
+    let into_final: Vec<_> = analog
+        .graph
+        .edges_directed(analog.final_place, petgraph::Direction::Incoming)
+        .map(|e| e.id())
+        .collect();
+    for e in into_final.into_iter().rev() {
+        analog.graph.remove_edge(e);
+    }
+    let site = format!("the end notice of {}", slices[i].drone);
+    Some((site, slices, Some(analog)))
 }
 
 fn action_of(kind: &mut TransitionKind) -> Option<&mut ActionRef> {
