@@ -13,8 +13,8 @@
 //! is equivalent to the mission. A dropped bridge's analog drops the
 //! mission's arcs the bridge stands for (for a fan-out every arc it fans
 //! out, for a forward every arc it forwards; a pre-join's join never
-//! fires). A moved action has no analog: the drone that runs it differs, so
-//! it must always be told apart.
+//! fires). A moved action or condition has no analog: the drone that runs
+//! it differs, so it must always be told apart.
 //!
 //! A dropped end notice is an owner whose end is never marked: it never
 //! tells the others, so nobody stops.
@@ -33,15 +33,19 @@ pub enum Kind {
     DropBridge,
     SwapActions,
     MoveAction,
+    /// A condition decided on another drone than the one whose state it
+    /// reads first (the compiler's choice).
+    MoveCondition,
     FlipGuard,
     DropDelay,
     DropEndNotice,
 }
 
-pub const KINDS: [Kind; 6] = [
+pub const KINDS: [Kind; 7] = [
     Kind::DropBridge,
     Kind::SwapActions,
     Kind::MoveAction,
+    Kind::MoveCondition,
     Kind::FlipGuard,
     Kind::DropDelay,
     Kind::DropEndNotice,
@@ -69,7 +73,12 @@ pub fn mutant(
     let (site, slices, analog) = match kind {
         Kind::DropBridge => drop_bridge(net, s, &at)?,
         Kind::SwapActions => swap_actions(net, s, &at)?,
-        Kind::MoveAction => return move_action(net, s, fired, pick),
+        Kind::MoveAction => move_unit(net, s, &at, &|t| {
+            matches!(t.kind, TransitionKind::ActionStart(_))
+        })?,
+        Kind::MoveCondition => move_unit(net, s, &at, &|t| {
+            t.kind.action().is_none() && t.guard.as_ref().is_some_and(|g| !g.drones().is_empty())
+        })?,
         Kind::FlipGuard => change_transition(net, s, &at, &FlipGuard)?,
         Kind::DropDelay => change_transition(net, s, &at, &DropDelay)?,
         Kind::DropEndNotice => drop_end_notice(net, s, &at)?,
@@ -304,20 +313,22 @@ fn action_refs(net: &Net) -> BTreeMap<u32, ActionRef> {
         .collect()
 }
 
-/// The slicer's partition put one action (with every node that must live
-/// beside it) on another owner: the next drone, or the ground station in a
-/// mission of one drone.
-fn move_action(net: &Net, s: &Slices, fired: &BTreeSet<String>, pick: usize) -> Option<Mutant> {
+/// The slicer's partition put one step that `what` picks (with every node
+/// that must live beside it) on another owner: the next drone, or the
+/// ground station in a mission of one drone.
+fn move_unit(
+    net: &Net,
+    s: &Slices,
+    at: &Sites,
+    what: &dyn Fn(&Transition) -> bool,
+) -> Option<Made> {
     let d = &s.distributed;
-    let starts: Vec<_> = d
+    let sites: Vec<_> = d
         .transitions()
-        .filter(|(_, t)| matches!(t.kind, TransitionKind::ActionStart(_)) && fired.contains(&t.id))
+        .filter(|(_, t)| what(t) && at.fired.contains(&t.id))
         .map(|(v, _)| v)
         .collect();
-    if starts.is_empty() {
-        return None;
-    }
-    let start = starts[pick % starts.len()];
+    let start = at.choose(&sites)?;
     // The unit: places and the owned transitions that consume or read them,
     // closed under both (the join that ends the mission belongs to nobody).
     let mut unit = BTreeSet::from([start]);
@@ -366,12 +377,7 @@ fn move_action(net: &Net, s: &Slices, fired: &BTreeSet<String>, pick: usize) -> 
         net.owner_name(from),
         net.owner_name(to)
     );
-    Some(Mutant {
-        kind: Kind::MoveAction,
-        site,
-        slices,
-        analog: None,
-    })
+    Some((site, slices, None))
 }
 
 /// The mission net without what a bridge stands for: the arc from `sender`
