@@ -10,7 +10,11 @@
 //! once it holds a notice from every owner its own [`Slice::ends`] lists.
 //! The mission's `final` is marked by a transition no drone runs, once every
 //! slice has stopped. A slice that never reaches its end, or that waits for
-//! an owner that never sends, keeps `final` unmarked: a deadlock.
+//! an owner that never sends, keeps `final` unmarked: a deadlock. A stopped
+//! slice is not silenced here (that would take a read arc on every one of
+//! its transitions, which the comparison's reductions cannot step over), so
+//! a slice that lists too few ends and stops while a peer still waits for
+//! its tokens is not told apart from a right one.
 //!
 //! This is the net the drones play together over a network that delays
 //! messages arbitrarily; [`crate::equivalence`] compares it with the
