@@ -43,6 +43,7 @@ pub const PAPER: &[&str] = &[
 
 pub mod gen;
 pub mod mutate;
+pub mod write;
 
 use eamos_slicer::equivalence::{Budget, Verdict};
 use proptest::strategy::Strategy;
