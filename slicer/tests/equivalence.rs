@@ -19,8 +19,8 @@
 //! lower bound of bridges ([`eamos_slicer::bound`]): the slicer may never
 //! claim fewer.
 //!
-//! Cases: `PROPTEST_CASES` (default 2000, about 55 s in a debug build on two cores; more by hand, e.g.
-//! `PROPTEST_CASES=20000`).
+//! Cases: `PROPTEST_CASES` (default 2000, about a minute in a debug build
+//! on two cores; more by hand, e.g. `PROPTEST_CASES=20000`).
 
 mod common;
 

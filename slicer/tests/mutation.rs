@@ -12,7 +12,8 @@
 //! equivalent too (see `common/mutate.rs`): it is then counted apart, never
 //! skipped. The counts per kind are printed.
 //!
-//! Cases: `PROPTEST_CASES` (default 300 missions, about 12 s in a debug build; more by hand).
+//! Cases: `PROPTEST_CASES` (default 300 missions, about 15 s in a debug
+//! build on two cores; more by hand).
 
 mod common;
 

@@ -11,7 +11,8 @@
 //! distinguishing trace is as short either way (both searches are
 //! breadth-first over the same determinised automata).
 //!
-//! Cases: `PROPTEST_CASES` (default 400, about 5 s in a debug build; more by hand).
+//! Cases: `PROPTEST_CASES` (default 400, about 6 s in a debug build on two
+//! cores; more by hand).
 
 mod common;
 
