@@ -1,20 +1,34 @@
 //! The slices of a mission put back together as one net, with every bridge
 //! an asynchronous channel: the sending transition puts a token into a
 //! channel place, a separate *deliver* transition moves it to the inbox
-//! later. The slices' ends (one per owner that holds one) are joined into
-//! one place `final` by a transition no drone runs: the mission has ended
-//! when every slice has reached its end. This is the net the drones play
-//! together over a network that delays messages arbitrarily; [`crate::equivalence`] compares it with the
+//! later. Every node is owned by the slice it came from, so a firing says
+//! which drone ran it.
+//!
+//! The end protocol the executors follow is part of the net: a slice that
+//! marks its [`Slice::final_place`] sends the `end` notice to every slice
+//! (a place per receiver, marked by a silent *tell* step), and a slice stops
+//! once it holds a notice from every owner its own [`Slice::ends`] lists.
+//! The mission's `final` is marked by a transition no drone runs, once every
+//! slice has stopped. A slice that never reaches its end, or that waits for
+//! an owner that never sends, keeps `final` unmarked: a deadlock. A stopped
+//! slice is not silenced here (that would take a read arc on every one of
+//! its transitions, which the comparison's reductions cannot step over), so
+//! a slice that lists too few ends and stops while a peer still waits for
+//! its tokens is not told apart from a right one.
+//!
+//! This is the net the drones play together over a network that delays
+//! messages arbitrarily; [`crate::equivalence`] compares it with the
 //! mission net.
 
 use std::collections::BTreeMap;
 
+use eamos_lang::hir::DroneId;
 use eamos_petri::net::{
     Arc, ArcKind, ColourOp, Net, Node, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
 };
 use petgraph::graph::DiGraph;
 
-use crate::slice::Slice;
+use crate::slice::{Slice, GCS};
 
 /// Slices that do not fit together.
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
@@ -31,6 +45,8 @@ pub enum ComposeError {
     Initial(usize),
     #[error("the slices hold no end of the mission")]
     NoEnd,
+    #[error("the slice of `{0}` waits for no end: it would stop before it starts")]
+    WaitsForNoEnd(String),
 }
 
 /// One net from all slices of a mission, bridges as channels.
@@ -56,22 +72,21 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
     let mut trans_at: Vec<Vec<NodeId>> = Vec::new();
     let mut initial_marking = Vec::new();
     let mut initials = Vec::new();
-    let mut finals = Vec::new();
+    let mut ends: Vec<Option<NodeId>> = Vec::new();
     let arc = |kind, colour| Arc {
         kind,
         weight: 1,
         colour,
     };
     for s in slices {
+        let owner = owner_of(s);
         let places: Vec<NodeId> = s
             .places
             .iter()
             .map(|p| {
-                let v = graph.add_node(Node::Place(p.clone()));
-                match p.kind {
-                    PlaceKind::Initial => initials.push(v),
-                    PlaceKind::Final => finals.push(v),
-                    _ => {}
+                let v = graph.add_node(Node::Place(Place { owner, ..p.clone() }));
+                if p.kind == PlaceKind::Initial {
+                    initials.push(v);
                 }
                 v
             })
@@ -79,8 +94,14 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
         let transitions: Vec<NodeId> = s
             .transitions
             .iter()
-            .map(|t| graph.add_node(Node::Transition(t.transition.clone())))
+            .map(|t| {
+                graph.add_node(Node::Transition(Transition {
+                    owner,
+                    ..t.transition.clone()
+                }))
+            })
             .collect();
+        ends.push(s.final_place.map(|p| places[p as usize]));
         for (t, st) in transitions.iter().zip(&s.transitions) {
             for &p in &st.consume {
                 graph.add_edge(
@@ -170,36 +191,13 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
     if initials.len() != 1 {
         return Err(ComposeError::Initial(initials.len()));
     }
-    let final_place = match finals.as_slice() {
-        [] => return Err(ComposeError::NoEnd),
-        [one] => *one,
-        ends => {
-            // The mission has ended when every slice has reached its end:
-            // a join that no drone runs.
-            let done = graph.add_node(Node::Place(Place {
-                id: "final".into(),
-                label: "every slice has ended".into(),
-                kind: PlaceKind::Final,
-                owner: Owner::Unassigned,
-                span: None,
-                depth: 0,
-            }));
-            let join = graph.add_node(Node::Transition(Transition {
-                id: "finish".into(),
-                label: "every slice has ended".into(),
-                kind: TransitionKind::Finish,
-                owner: Owner::Unassigned,
-                span: Default::default(),
-                guard: None,
-                delay: None,
-            }));
-            for &end in ends {
-                graph.add_edge(end, join, arc(ArcKind::Consume, ColourOp::Keep));
-            }
-            graph.add_edge(join, done, arc(ArcKind::Produce, ColourOp::Keep));
-            done
-        }
-    };
+    if ends.iter().all(Option::is_none) {
+        return Err(ComposeError::NoEnd);
+    }
+    if let Some(s) = slices.iter().find(|s| s.ends.is_empty()) {
+        return Err(ComposeError::WaitsForNoEnd(s.drone.clone()));
+    }
+    let final_place = end_protocol(&mut graph, slices, &ends);
     Ok(Net {
         name: first.mission.clone(),
         graph,
@@ -209,4 +207,86 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
         initial_place: initials[0],
         final_place,
     })
+}
+
+/// The owner that runs a slice, as the mission names it.
+fn owner_of(s: &Slice) -> Owner {
+    match s.drones.iter().position(|d| *d == s.drone) {
+        _ if s.drone == GCS => Owner::Gcs,
+        Some(i) => Owner::Drone(DroneId(i as u16)),
+        None => Owner::Unassigned,
+    }
+}
+
+/// The `end` notices and every slice's stop (see the module docs); returns
+/// the mission's `final` place.
+fn end_protocol(
+    graph: &mut DiGraph<Node, Arc>,
+    slices: &[Slice],
+    ends: &[Option<NodeId>],
+) -> NodeId {
+    let arc = |kind, colour| Arc {
+        kind,
+        weight: 1,
+        colour,
+    };
+    let place = |graph: &mut DiGraph<Node, Arc>, id: String, kind| {
+        graph.add_node(Node::Place(Place {
+            label: id.clone(),
+            id,
+            kind,
+            owner: Owner::Unassigned,
+            span: None,
+            depth: 0,
+        }))
+    };
+    let transition = |graph: &mut DiGraph<Node, Arc>, id: String, kind| {
+        graph.add_node(Node::Transition(Transition {
+            label: id.clone(),
+            id,
+            kind,
+            owner: Owner::Unassigned,
+            span: Default::default(),
+            guard: None,
+            delay: None,
+        }))
+    };
+    // notice[x][r]: the notice that `x` has ended, at `r`.
+    let mut notice = vec![Vec::new(); slices.len()];
+    for (x, sx) in slices.iter().enumerate() {
+        for sr in slices {
+            let id = format!("notice.{}.{}", sx.drone, sr.drone);
+            notice[x].push(place(graph, id, PlaceKind::Control));
+        }
+        if let Some(end) = ends[x] {
+            let tell = transition(graph, format!("tell.{}", sx.drone), TransitionKind::Silent);
+            graph.add_edge(end, tell, arc(ArcKind::Consume, ColourOp::Keep));
+            for &n in &notice[x] {
+                graph.add_edge(tell, n, arc(ArcKind::Produce, ColourOp::Keep));
+            }
+        }
+    }
+    let done = place(graph, "final".into(), PlaceKind::Final);
+    let finish = transition(graph, "finish".into(), TransitionKind::Finish);
+    graph.add_edge(finish, done, arc(ArcKind::Produce, ColourOp::Keep));
+    for (r, sr) in slices.iter().enumerate() {
+        let stop = transition(graph, format!("stop.{}", sr.drone), TransitionKind::Silent);
+        for name in &sr.ends {
+            // An owner without a slice never sends: `stop` waits for ever.
+            let from = slices.iter().position(|s| s.drone == *name);
+            let n = match from {
+                Some(x) => notice[x][r],
+                None => place(
+                    graph,
+                    format!("notice.{name}.{}", sr.drone),
+                    PlaceKind::Control,
+                ),
+            };
+            graph.add_edge(n, stop, arc(ArcKind::Consume, ColourOp::Keep));
+        }
+        let stopped = place(graph, format!("stopped.{}", sr.drone), PlaceKind::Control);
+        graph.add_edge(stop, stopped, arc(ArcKind::Produce, ColourOp::Keep));
+        graph.add_edge(stopped, finish, arc(ArcKind::Consume, ColourOp::Keep));
+    }
+    done
 }

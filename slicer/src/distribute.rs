@@ -121,14 +121,26 @@ pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
     let owner = assignment.node_owners(&units);
     let bundles = plan_bundles(&work, &facts, &owner);
     let distributed = apply_bundles(&work, &owner, &bundles, end.as_ref());
-    let ends = end_owners(&distributed);
-    let slices = cut_all(&distributed, &owners, identity, &ends);
+    let slices = cut_along_owners(&distributed, identity);
     Ok(Slices {
         mission: net.name.clone(),
         mission_id: identity.to_string(),
         slices,
         distributed,
     })
+}
+
+/// The slices of a net whose nodes all have their owner (as
+/// [`Slices::distributed`]): every arc between two owners becomes a bridge.
+/// Cutting [`Slices::distributed`] again gives [`Slices::slices`]; the
+/// mutation tests cut a net with nodes moved to other owners, to see that a
+/// wrong slicing is told apart from a right one.
+pub fn cut_along_owners(distributed: &Net, identity: &str) -> Vec<Slice> {
+    let owners: Vec<Owner> = std::iter::once(Owner::Gcs)
+        .chain((0..distributed.drones.len()).map(|d| Owner::Drone(DroneId(d as u16))))
+        .collect();
+    let ends = end_owners(distributed);
+    cut_all(distributed, &owners, identity, &ends)
 }
 
 fn max_input_depth(net: &Net, t: NodeId) -> u8 {

@@ -70,11 +70,13 @@
 //! # Why the slices behave like the net
 //!
 //! Run the slices together over a network that delays messages arbitrarily
-//! (and does not lose them: the transports' job), the owners' ends joined
-//! into `final` by one silent transition that nobody runs (see
-//! [`compose`]). That is the mission net with two kinds of changes, and neither changes its visible traces (action
-//! starts, ends and cancels, and reaching `final`), its dead markings or its
-//! 1-safety:
+//! (and does not lose them: the transports' job), each slice stopping once
+//! it has heard the `end` notice of every owner it lists, and the mission
+//! ended when every slice has stopped (see [`compose`]). That is the mission
+//! net with two kinds of changes, and neither changes its visible traces
+//! (which drone starts, ends or cancels which action with which arguments,
+//! which drone decides which condition which way, the delays, and reaching
+//! `final`), its dead markings or its 1-safety:
 //!
 //! - **Delayed production.** A bridge turns `t -> p` into `t -> channel ->
 //!   deliver -> p`; a fan-out turns `t -> {p1, p2}` into `t -> inbox -> fork
@@ -105,8 +107,11 @@
 //! forwards keep colours.
 //!
 //! [`equivalence`] decides this on the composed slices ([`compose`]) against
-//! the net: the property test `tests/equivalence.rs` does so for thousands of
-//! random missions with every construct of the language.
+//! the net: the property test `tests/equivalence.rs` does so, exactly, for
+//! thousands of random missions with every construct of the language;
+//! `tests/mutation.rs` breaks the slices in the ways a slicer bug would and
+//! sees every break told apart, and `tests/reductions.rs` holds the
+//! checker's reductions against its plain search.
 //!
 //! # For the executor
 //!
@@ -132,7 +137,7 @@ pub mod stats;
 pub mod wire;
 
 pub use codec::MAGIC;
-pub use distribute::{net_id, slice, slice_as, Slices};
+pub use distribute::{cut_along_owners, net_id, slice, slice_as, Slices};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};
