@@ -87,6 +87,20 @@ impl Marking {
             })
     }
 
+    /// The same places marked, each token's colour replaced by `f` of it.
+    /// A search over markings uses it to fold colours that no guard can
+    /// tell apart into one marking, so that loops whose counters grow
+    /// without bound still have finitely many markings.
+    pub fn map_colours(&self, mut f: impl FnMut(&[u32]) -> Colour) -> Marking {
+        Marking {
+            tokens: self
+                .tokens
+                .iter()
+                .map(|(p, c)| (*p, Arc::from(f(c))))
+                .collect(),
+        }
+    }
+
     fn index(&self, p: NodeId) -> Result<usize, usize> {
         self.tokens.binary_search_by_key(&p, |(q, _)| *q)
     }
