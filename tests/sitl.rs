@@ -119,8 +119,7 @@ fn fleet_at_home(dir: &Path, drone: &str, connect: &str, mavlink: &str) -> PathB
 fn last_position(out: &Path, drone: &str) -> Vec3 {
     let last = adapter_log(out, drone)
         .into_iter()
-        .filter(|r| r["event"] == "position")
-        .last()
+        .rfind(|r| r["event"] == "position")
         .expect("positions in the adapter log");
     let p = &last["position"];
     Vec3::new(
