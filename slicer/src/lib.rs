@@ -130,6 +130,7 @@ mod partition;
 pub mod slice;
 pub mod stats;
 pub mod wire;
+mod work;
 
 pub use codec::MAGIC;
 pub use distribute::{net_id, slice, slice_as, Slices};
