@@ -288,7 +288,7 @@ impl Compiler<'_> {
             kind,
             owner,
             span,
-            guard,
+            guard: guard.map(Box::new),
             delay: None,
         })
     }

@@ -1,7 +1,6 @@
 //! From an assignment to slices: apply the bundles to the net (new fan-out,
 //! pre-join and forward nodes), then cut the result along owners.
 
-use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
 use std::io::{BufWriter, Write as _};
 
@@ -18,6 +17,7 @@ use crate::end::End;
 use crate::error::SliceError;
 use crate::partition::{assign, node_id, plan_bundles, Bundle, Facts, Units};
 use crate::slice::{BridgeIn, BridgeOut, Produce, Slice, SliceTransition, GCS};
+use crate::work::Work;
 
 /// The slices of one mission, the ground station's first, then one per
 /// drone in the order the mission declares them.
@@ -108,19 +108,16 @@ pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
     // The end tree is nobody's (see `end.rs`): partition the net without
     // its arcs, so that its inputs stay wherever their producers are.
     let end = End::of(net);
-    let work = match &end {
-        Some(end) => Cow::Owned(without(net, &end.region)),
-        None => Cow::Borrowed(net),
-    };
-    let units = Units::of(&work)?;
-    let facts = Facts::of(&work);
+    let work = Work::new(net, end.as_ref().map_or(&[], |e| &e.region));
+    let units = Units::of(work)?;
+    let facts = Facts::of(net);
     let owners: Vec<Owner> = std::iter::once(Owner::Gcs)
         .chain((0..net.drones.len()).map(|d| Owner::Drone(DroneId(d as u16))))
         .collect();
-    let assignment = assign(&work, &units, &facts, &owners);
+    let assignment = assign(work, &units, &facts, &owners);
     let owner = assignment.node_owners(&units);
-    let bundles = plan_bundles(&work, &facts, &owner);
-    let distributed = apply_bundles(&work, &owner, &bundles, end.as_ref());
+    let bundles = plan_bundles(work, &facts, &owner);
+    let distributed = apply_bundles(work, &owner, &bundles, end.as_ref());
     let slices = cut_along_owners(&distributed, identity);
     Ok(Slices {
         mission: net.name.clone(),
@@ -143,42 +140,19 @@ pub fn cut_along_owners(distributed: &Net, identity: &str) -> Vec<Slice> {
     cut_all(distributed, &owners, identity, &ends)
 }
 
-fn max_input_depth(net: &Net, t: NodeId) -> u8 {
-    net.preset(t)
-        .chain(net.read_set(t))
-        .filter_map(|p| net.place(p).map(|p| p.depth))
+fn max_input_depth(work: Work, t: NodeId) -> u8 {
+    work.preset(t)
+        .chain(work.read_set(t))
+        .filter_map(|p| work.net.place(p).map(|p| p.depth))
         .max()
         .unwrap_or(0)
-}
-
-/// The net without the arcs that touch `region`.
-fn without(net: &Net, region: &[bool]) -> Net {
-    // Sized up front (`filter_map` grows by doubling): this copy is alive
-    // for the whole of slicing, so its spare room would count at the peak.
-    let mut graph = DiGraph::with_capacity(net.graph.node_count(), net.graph.edge_count());
-    for v in net.graph.node_indices() {
-        graph.add_node(net.graph[v].clone());
-    }
-    for e in net.graph.edge_references() {
-        if !region[e.source().index()] && !region[e.target().index()] {
-            graph.add_edge(e.source(), e.target(), *e.weight());
-        }
-    }
-    Net {
-        name: net.name.clone(),
-        graph,
-        drones: net.drones.clone(),
-        profiles: net.profiles.clone(),
-        initial_marking: net.initial_marking.clone(),
-        initial_place: net.initial_place,
-        final_place: net.final_place,
-    }
 }
 
 /// Rewrites the net so that every bundle becomes one crossing arc, and the
 /// end tree (if any) becomes one end per owner joined by a transition that
 /// belongs to no one (see `end.rs`).
-fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&End>) -> Net {
+fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&End>) -> Net {
+    let net = work.net;
     // Sized for what the bundles and the end add (two nodes and at most
     // one arc more per target each), so that the vectors never double.
     let added: usize = bundles
@@ -243,7 +217,7 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&En
                     let d = net.place(targets[0].0).map_or(0, |p| p.depth);
                     (targets[0].1, d)
                 } else {
-                    (ColourOp::Keep, max_input_depth(net, *transition))
+                    (ColourOp::Keep, max_input_depth(work, *transition))
                 };
                 let inbox = graph.add_node(Node::Place(Place {
                     id: format!("{}.out.{}.p", t.id, name(*to)),
@@ -276,7 +250,7 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&En
                     if let Node::Place(place) = &mut graph[at(p)] {
                         place.owner = *from;
                     }
-                    for e in net.graph.edges_connecting(p, *join) {
+                    for e in work.connecting(p, *join) {
                         skip[e.id().index()] = true;
                     }
                 }
@@ -334,7 +308,7 @@ fn apply_bundles(net: &Net, owner: &[Owner], bundles: &[Bundle], end: Option<&En
             }
         }
     }
-    for e in net.graph.edge_references() {
+    for e in work.arcs() {
         if !skip[e.id().index()] {
             graph.add_edge(at(e.source()), at(e.target()), *e.weight());
         }
@@ -443,23 +417,48 @@ fn cut_all(net: &Net, owners: &[Owner], mission_id: &str, ends: &[Owner]) -> Vec
         .iter()
         .zip(nodes)
         .zip(bridges)
-        .map(|((&o, nodes), bridges)| cut(net, o, mission_id, &nodes, &local, &bridges, &ends))
+        .zip(counts)
+        .map(|(((&me, nodes), bridges), count)| {
+            let part = Cut {
+                me,
+                mission_id,
+                nodes: &nodes,
+                local: &local,
+                bridges: &bridges,
+                ends: &ends,
+            };
+            cut(net, part, count)
+        })
         .collect()
 }
 
-/// The slice of one owner: its nodes, its internal arcs, and a bridge for
-/// every arc between it and another owner.
-fn cut(
-    net: &Net,
+/// One owner's part of the distributed net, as [`cut`] takes it.
+struct Cut<'a> {
     me: Owner,
-    mission_id: &str,
-    nodes: &[NodeId],
-    local: &[u32],
-    bridges: &[(u32, petgraph::graph::EdgeIndex)],
-    ends: &[String],
-) -> Slice {
-    let mut places = Vec::new();
-    let mut transitions = Vec::new();
+    mission_id: &'a str,
+    nodes: &'a [NodeId],
+    /// Index of every node among its owner's places or transitions.
+    local: &'a [u32],
+    /// The bridges this owner sends or receives, numbered.
+    bridges: &'a [(u32, petgraph::graph::EdgeIndex)],
+    ends: &'a [String],
+}
+
+/// The slice of one owner: its nodes, its internal arcs, and a bridge for
+/// every arc between it and another owner. `count` is how many places and
+/// transitions it has: the slices live as long as the net, and vectors
+/// grown by doubling would keep up to half their room spare at the peak.
+fn cut(net: &Net, part: Cut, (place_count, transition_count): (u32, u32)) -> Slice {
+    let Cut {
+        me,
+        mission_id,
+        nodes,
+        local,
+        bridges,
+        ends,
+    } = part;
+    let mut places = Vec::with_capacity(place_count as usize);
+    let mut transitions = Vec::with_capacity(transition_count as usize);
     for &v in nodes {
         match &net.graph[v] {
             Node::Place(p) => places.push(p.clone()),

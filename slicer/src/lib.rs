@@ -135,6 +135,7 @@ mod partition;
 pub mod slice;
 pub mod stats;
 pub mod wire;
+mod work;
 
 pub use codec::MAGIC;
 pub use distribute::{cut_along_owners, net_id, slice, slice_as, Slices};

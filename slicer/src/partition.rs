@@ -17,9 +17,9 @@ use std::collections::{BTreeMap, BinaryHeap};
 use eamos_petri::net::{ArcKind, Net, Node, NodeId, Owner};
 use petgraph::graph::EdgeIndex;
 use petgraph::visit::EdgeRef;
-use petgraph::Direction;
 
 use crate::error::SliceError;
+use crate::work::Work;
 
 /// The places-with-their-consumers units of a net.
 pub(crate) struct Units {
@@ -60,10 +60,11 @@ fn find(parent: &mut [usize], mut x: usize) -> usize {
 }
 
 impl Units {
-    pub fn of(net: &Net) -> Result<Units, SliceError> {
+    pub fn of(work: Work) -> Result<Units, SliceError> {
+        let net = work.net;
         let n = net.graph.node_count();
         let mut parent: Vec<usize> = (0..n).collect();
-        for e in net.graph.edge_references() {
+        for e in work.arcs() {
             if e.weight().weight != 1 {
                 return Err(SliceError::ArcWeight {
                     from: node_id(net, e.source()),
@@ -109,11 +110,11 @@ impl Units {
                 0 => {}
                 1 => unit.fixed = Some(owners[0]),
                 _ => {
-                    return Err(conflict(net, &unit.nodes, owners));
+                    return Err(conflict(work, &unit.nodes, owners));
                 }
             }
         }
-        for e in net.graph.edge_references() {
+        for e in work.arcs() {
             let (a, b) = (unit_of[e.source().index()], unit_of[e.target().index()]);
             if a != b {
                 units[a].neighbours.push(b);
@@ -126,23 +127,23 @@ impl Units {
         }
         let mut result = Units { unit_of, units };
         for u in 0..result.units.len() {
-            result.units[u].hint = result.hint(net, u);
+            result.units[u].hint = result.hint(work, u);
         }
         Ok(result)
     }
 
     /// Arcs entering and leaving a unit from other units.
-    fn boundary(&self, net: &Net, u: usize) -> (Vec<usize>, Vec<usize>) {
+    fn boundary(&self, work: Work, u: usize) -> (Vec<usize>, Vec<usize>) {
         let mut ins = Vec::new();
         let mut outs = Vec::new();
         for &v in &self.units[u].nodes {
-            for e in net.graph.edges_directed(v, Direction::Incoming) {
+            for e in work.incoming(v) {
                 let w = self.unit_of[e.source().index()];
                 if w != u {
                     ins.push(w);
                 }
             }
-            for e in net.graph.edges_directed(v, Direction::Outgoing) {
+            for e in work.outgoing(v) {
                 let w = self.unit_of[e.target().index()];
                 if w != u {
                     outs.push(w);
@@ -152,11 +153,11 @@ impl Units {
         (ins, outs)
     }
 
-    fn hint(&self, net: &Net, u: usize) -> Hint {
+    fn hint(&self, work: Work, u: usize) -> Hint {
         if self.units[u].fixed.is_some() {
             return Hint::None;
         }
-        let (ins, outs) = self.boundary(net, u);
+        let (ins, outs) = self.boundary(work, u);
         let fixed = |w: usize| self.units[w].fixed.is_some();
         if ins.len() == 1 && outs.len() != 1 && fixed(ins[0]) {
             Hint::Upstream(ins[0])
@@ -172,7 +173,8 @@ impl Units {
     }
 }
 
-fn conflict(net: &Net, nodes: &[NodeId], owners: Vec<Owner>) -> SliceError {
+fn conflict(work: Work, nodes: &[NodeId], owners: Vec<Owner>) -> SliceError {
+    let net = work.net;
     // Name the place whose consumers disagree: that is what a person fixes.
     let place = nodes
         .iter()
@@ -180,7 +182,7 @@ fn conflict(net: &Net, nodes: &[NodeId], owners: Vec<Owner>) -> SliceError {
         .filter(|&v| net.is_place(v))
         .find(|&p| {
             let mut os: Vec<Owner> = std::iter::once(net.owner(p))
-                .chain(net.consumers(p).map(|(t, _)| net.owner(t)))
+                .chain(work.consumers(p).map(|(t, _)| net.owner(t)))
                 .filter(|o| *o != Owner::Unassigned)
                 .collect();
             os.sort();
@@ -265,7 +267,7 @@ impl Facts {
 /// consumer `join` takes it: nobody else looks at `p`, it is not marked at
 /// the start, and all its producers share one owner other than `join`'s.
 fn prejoinable(
-    net: &Net,
+    work: Work,
     facts: &Facts,
     owner: &[Owner],
     p: NodeId,
@@ -274,13 +276,13 @@ fn prejoinable(
     if facts.marked[p.index()] {
         return None;
     }
-    let mut consumers = net.consumers(p);
+    let mut consumers = work.consumers(p);
     match (consumers.next(), consumers.next()) {
         (Some((t, ArcKind::Consume)), None) if t == join => {}
         _ => return None,
     }
     let mut from = None;
-    for s in net.producers(p) {
+    for s in work.producers(p) {
         let o = owner[s.index()];
         if from.is_some_and(|f| f != o) {
             return None;
@@ -295,10 +297,10 @@ fn prejoinable(
 ///
 /// Greedy, in a fixed order so that the result is deterministic: fan-outs
 /// first (largest first), then pre-joins, then forwards, then single arcs.
-pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bundle> {
-    let crossing: Vec<EdgeIndex> = net
-        .graph
-        .edge_references()
+pub(crate) fn plan_bundles(work: Work, facts: &Facts, owner: &[Owner]) -> Vec<Bundle> {
+    let net = work.net;
+    let crossing: Vec<EdgeIndex> = work
+        .arcs()
         .filter(|e| {
             e.weight().kind == ArcKind::Produce
                 && owner[e.source().index()] != owner[e.target().index()]
@@ -341,7 +343,7 @@ pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bun
         .iter()
         .filter_map(|&e| {
             let (_, p) = net.graph.edge_endpoints(e)?;
-            let mut c = net.consumers(p);
+            let mut c = work.consumers(p);
             match (c.next(), c.next()) {
                 (Some((t, ArcKind::Consume)), None) => Some(t),
                 _ => None,
@@ -352,19 +354,18 @@ pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bun
     joins.dedup();
     let mut prejoins = Vec::new();
     for join in joins {
-        let inputs: Vec<NodeId> = net.preset(join).collect();
+        let inputs: Vec<NodeId> = work.preset(join).collect();
         let depth = inputs.first().map(|p| facts.depth[p.index()]);
         if inputs.iter().any(|p| Some(facts.depth[p.index()]) != depth)
-            || net.read_set(join).next().is_some()
+            || work.read_set(join).next().is_some()
         {
             continue;
         }
         let mut by_owner: BTreeMap<Owner, Vec<NodeId>> = BTreeMap::new();
         for &p in &inputs {
-            if let Some(from) = prejoinable(net, facts, owner, p, join) {
-                let free = net
-                    .graph
-                    .edges_directed(p, Direction::Incoming)
+            if let Some(from) = prejoinable(work, facts, owner, p, join) {
+                let free = work
+                    .incoming(p)
                     .all(|e| is_crossing[e.id().index()] && !covered[e.id().index()]);
                 if free {
                     by_owner.entry(from).or_default().push(p);
@@ -372,7 +373,7 @@ pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bun
             }
         }
         for (from, places) in by_owner {
-            let arcs: usize = places.iter().map(|&p| net.producers(p).count()).sum();
+            let arcs: usize = places.iter().map(|&p| work.producers(p).count()).sum();
             if arcs >= 2 {
                 prejoins.push((arcs, join, from, places));
             }
@@ -382,11 +383,7 @@ pub(crate) fn plan_bundles(net: &Net, facts: &Facts, owner: &[Owner]) -> Vec<Bun
     for (_, join, from, places) in prejoins {
         let arcs: Vec<EdgeIndex> = places
             .iter()
-            .flat_map(|&p| {
-                net.graph
-                    .edges_directed(p, Direction::Incoming)
-                    .map(|e| e.id())
-            })
+            .flat_map(|&p| work.incoming(p).map(|e| e.id()))
             .collect();
         if arcs.iter().any(|e| covered[e.index()]) {
             continue;
@@ -527,13 +524,14 @@ impl Csr {
 }
 
 impl Cost {
-    fn new(net: &Net, facts: &Facts, owner: Vec<Owner>) -> Cost {
+    fn new(work: Work, facts: &Facts, owner: Vec<Owner>) -> Cost {
+        let net = work.net;
         let n = net.graph.node_count();
         let mut outs = Vec::new();
         let mut ins = Vec::new();
         let mut consumers = vec![0u32; n];
         let mut sole = vec![NONE; n];
-        for e in net.graph.edge_references() {
+        for e in work.arcs() {
             let (a, b) = (e.source().index(), e.target().index());
             match e.weight().kind {
                 ArcKind::Produce => {
@@ -555,11 +553,11 @@ impl Cost {
         let mut joinable = Vec::new();
         let mut inputs = Vec::new();
         for t in net.graph.node_indices() {
-            if net.is_place(t) || net.read_set(t).next().is_some() {
+            if net.is_place(t) || work.read_set(t).next().is_some() {
                 continue;
             }
             inputs.clear();
-            inputs.extend(net.preset(t).map(|p| p.index() as u32));
+            inputs.extend(work.preset(t).map(|p| p.index() as u32));
             let depth = inputs.first().map(|&p| facts.depth[p as usize]);
             if inputs
                 .iter()
@@ -770,9 +768,9 @@ impl Cost {
 ///
 /// Linear in the net per pass: the seed visits each unit once per owner it
 /// hears of, and a move is judged by the bridges around it ([`Cost`]).
-pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) -> Assignment {
+pub(crate) fn assign(work: Work, units: &Units, facts: &Facts, owners: &[Owner]) -> Assignment {
     let nu = units.units.len();
-    let mut unit_owner = seed(net, units);
+    let mut unit_owner = seed(work, units);
     let default = owners.first().copied().unwrap_or(Owner::Gcs);
     let mut unit_owner: Vec<Owner> = unit_owner.drain(..).map(|o| o.unwrap_or(default)).collect();
 
@@ -790,7 +788,7 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
         }
     };
     let owner_of_nodes = units.unit_of.iter().map(|&u| unit_owner[u]).collect();
-    let mut model = Cost::new(net, facts, owner_of_nodes);
+    let mut model = Cost::new(work, facts, owner_of_nodes);
     let mut cost = model.total();
     let set = |model: &mut Cost, group: &[usize], o: Owner| {
         for &g in group {
@@ -889,7 +887,7 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
     debug_assert_eq!(
         cost,
         plan_bundles(
-            net,
+            work,
             facts,
             &Assignment {
                 unit_owner: unit_owner.clone()
@@ -906,7 +904,7 @@ pub(crate) fn assign(net: &Net, units: &Units, facts: &Facts, owners: &[Owner]) 
 /// the most arcs into the unit first, the smaller owner on a tie. Sweeps
 /// the units in index order, a unit seeing the owners given earlier in the
 /// same sweep; only units next to a newly placed one are visited again.
-fn seed(net: &Net, units: &Units) -> Vec<Option<Owner>> {
+fn seed(work: Work, units: &Units) -> Vec<Option<Owner>> {
     let mut unit_owner: Vec<Option<Owner>> = units.units.iter().map(|u| u.fixed).collect();
     let nu = units.units.len();
     // Units to visit in this sweep (at or after the current index) and in
@@ -933,15 +931,10 @@ fn seed(net: &Net, units: &Units) -> Vec<Option<Owner>> {
             }
             let mut score: BTreeMap<Owner, usize> = BTreeMap::new();
             for &v in &units.units[u].nodes {
-                let arcs = net
-                    .graph
-                    .edges_directed(v, Direction::Incoming)
+                let arcs = work
+                    .incoming(v)
                     .map(|e| e.source())
-                    .chain(
-                        net.graph
-                            .edges_directed(v, Direction::Outgoing)
-                            .map(|e| e.target()),
-                    );
+                    .chain(work.outgoing(v).map(|e| e.target()));
                 for w in arcs {
                     let wu = units.unit_of[w.index()];
                     if wu != u {

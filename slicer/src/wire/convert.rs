@@ -312,7 +312,7 @@ fn transition_in(t: v3::Transition) -> Result<SliceTransition, DecodeError> {
             kind: kind_in(t.kind),
             owner: owner_in(t.owner),
             span: span_in(t.span),
-            guard,
+            guard: guard.map(Box::new),
             delay: t.delay,
         },
         consume: t.consume,

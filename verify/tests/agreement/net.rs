@@ -150,9 +150,9 @@ pub fn build(r: &RandomNet) -> (Net, String) {
                 _ => None,
             })
             .unwrap_or(TransitionKind::Silent);
-        let guard = a
-            .guard
-            .map(|(d, k, negated)| Guard::cond(conditions[d][k as usize].clone(), negated));
+        let guard = a.guard.map(|(d, k, negated)| {
+            Box::new(Guard::cond(conditions[d][k as usize].clone(), negated))
+        });
         let t = net.add_transition(Transition {
             id: String::new(),
             label: format!("t{k}"),

@@ -83,7 +83,7 @@ impl Builder {
             kind,
             owner: Owner::Unassigned,
             span,
-            guard,
+            guard: guard.map(Box::new),
             delay: None,
         });
         for &p in pre {
