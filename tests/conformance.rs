@@ -13,6 +13,10 @@
 //!   visible events, in an order of their mission times, each condition
 //!   guard taking the value the drones observed (what "is a trace of"
 //!   means exactly: `conformance/replay.rs`);
+//! - every condition decision was right about the world: the guard held on
+//!   the drones' sampled telemetry shortly before it fired
+//!   (`conformance/world.rs`), so the replay may take the decisions as the
+//!   drones took them;
 //! - a mission `eamos check` proves free of deadlock completes on every
 //!   peer, and its trace is complete: the game then reaches the final
 //!   marking.
@@ -24,6 +28,8 @@
 mod replay;
 #[path = "conformance/trace.rs"]
 mod trace;
+#[path = "conformance/world.rs"]
+mod world;
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -208,6 +214,16 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         observed.broken.join("\n"),
         context()
     );
+    // A telemetry period, and what the sampling task and the executor may
+    // lag behind the simulator: some 20 ms of wall time, at this speed.
+    let lag = 0.1 + 0.02 * c.speed;
+    let misjudged = world::misjudged(&net, &fleet.homes(&net.drones), &events, lag);
+    prop_assert!(
+        misjudged.is_empty(),
+        "{}\n{}",
+        misjudged.join("\n"),
+        context()
+    );
     if let Err(why) = replay::conforms(&net, &observed, completed) {
         return Err(TestCaseError::fail(format!("{why}\n{}", context())));
     }
@@ -216,7 +232,7 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
 
 proptest! {
     #![proptest_config(ProptestConfig {
-        cases: 10,
+        cases: 40,
         failure_persistence: None,
         ..ProptestConfig::default()
     })]
