@@ -21,7 +21,7 @@
 //!   peer, and its trace is complete: the game then reaches the final
 //!   marking.
 //!
-//! Ten cases by default (about half a minute in a debug build);
+//! Forty cases by default (about half a minute in a debug build);
 //! `PROPTEST_CASES=200` runs more by hand.
 
 #[path = "conformance/replay.rs"]
