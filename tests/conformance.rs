@@ -183,17 +183,6 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         .reports
         .iter()
         .all(|r| r.outcome == Outcome::Completed);
-    if deadlock_free {
-        for r in &report.reports {
-            prop_assert_eq!(
-                &r.outcome,
-                &Outcome::Completed,
-                "{} did not complete a mission proved free of deadlock\n{}",
-                r.drone,
-                context()
-            );
-        }
-    }
     let observed = trace::observe(&net, &events);
     if std::env::var_os("CONFORMANCE_MEASURE").is_some() {
         eprintln!(
@@ -226,6 +215,19 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
     );
     if let Err(why) = replay::conforms(&net, &observed, completed) {
         return Err(TestCaseError::fail(format!("{why}\n{}", context())));
+    }
+    // Last: a run that broke the net's rules says how, before it says
+    // that it did not end.
+    if deadlock_free {
+        for r in &report.reports {
+            prop_assert_eq!(
+                &r.outcome,
+                &Outcome::Completed,
+                "{} did not complete a mission proved free of deadlock\n{}",
+                r.drone,
+                context()
+            );
+        }
     }
     Ok(())
 }

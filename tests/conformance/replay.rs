@@ -15,6 +15,17 @@
 //!   that colour. Colour guards (`RepeatFor`) are the game's own.
 //! - `complete`: the whole trace is consumed and the game then reaches the
 //!   final marking by silent firings.
+//!
+//! Why an order of mission times is one causality allows: every drone of a
+//! one-process run reads the one simulated clock, which never goes back;
+//! an event is stamped when its executor says it, a bridge token leaves
+//! after the firing that sends it and arrives before the firing it
+//! enables. So an event that causes another is never stamped later; two
+//! of one stamp (the clock moves in simulation steps) may have happened
+//! either way round. An end is the firing of `ActionEnd` (the drone's
+//! `Fired` event), not the adapter's report, which comes before it and
+//! alone proves nothing of the net; `trace.rs` checks that every end
+//! follows such a report.
 
 use std::collections::HashSet;
 
