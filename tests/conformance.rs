@@ -2,8 +2,8 @@
 //! missions (2 or 3 drones, 20 to 60 nodes, every construct of the
 //! language) are sliced and flown by the real executor, every drone's slice
 //! in one process (`run_fleet`), on simulated drones with random airframes,
-//! random durations of the actions that do not move, a random simulation
-//! speed, over the in-process transport or zenoh on loopback, with the
+//! random durations of the actions that do not move, a random telemetry
+//! period, a random simulation speed, over the in-process transport or zenoh on loopback, with the
 //! transport's fault injection (dropped, duplicated, reordered frames) on
 //! some runs. Then:
 //!
@@ -55,6 +55,8 @@ struct Case {
     airframes: Vec<(f64, f64, f64)>,
     /// Seconds `TakePhoto`, `AdjustCamera`, `TurnOnCamera` take.
     durations: (f64, f64, f64),
+    /// Simulated seconds between two telemetry updates of a drone.
+    telemetry_period: f64,
     /// Simulated seconds per real second.
     speed: f64,
     transport: TransportKind,
@@ -78,17 +80,29 @@ fn case() -> impl Strategy<Value = Case> {
             any::<u64>(),
             prop::collection::vec((1.5f64..8.0, 1.0f64..4.0, 1.0f64..3.0), drones),
             (0.0f64..2.0, 0.0f64..2.0, 0.0f64..2.0),
+            0.05f64..0.5,
             60.0f64..200.0,
             transport,
             faults,
         )
             .prop_map(
-                |(drones, nodes, seed, airframes, durations, speed, transport, faults)| Case {
+                |(
                     drones,
                     nodes,
                     seed,
                     airframes,
                     durations,
+                    telemetry_period,
+                    speed,
+                    transport,
+                    faults,
+                )| Case {
+                    drones,
+                    nodes,
+                    seed,
+                    airframes,
+                    durations,
+                    telemetry_period,
                     speed,
                     transport,
                     faults,
@@ -102,7 +116,8 @@ impl Case {
     fn fleet_text(&self) -> String {
         let (photo, adjust, camera) = self.durations;
         let mut t = format!(
-            "[sim.durations]\nTakePhoto = {photo}\nAdjustCamera = {adjust}\nTurnOnCamera = {camera}\n"
+            "[sim]\ntelemetry_period = {}\n[sim.durations]\nTakePhoto = {photo}\nAdjustCamera = {adjust}\nTurnOnCamera = {camera}\n",
+            self.telemetry_period
         );
         for (i, (speed, climb, descent)) in self.airframes.iter().enumerate() {
             t += &format!(
@@ -186,12 +201,23 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
     let observed = trace::observe(&net, &events);
     if std::env::var_os("CONFORMANCE_MEASURE").is_some() {
         eprintln!(
-            "{} drones, {} nodes, {:?}, faults {}: {} visible events, {} decisions, \
-             deadlock free {deadlock_free}, completed {completed}, {:.1} s",
+            "{} drones, {} nodes, {:?}, faults {} ({} retransmitted, {} duplicates): \
+             {} visible events, {} decisions, deadlock free {deadlock_free}, \
+             completed {completed}, {:.1} s",
             c.drones,
             c.nodes,
             c.transport,
             c.faults.is_some(),
+            report
+                .reports
+                .iter()
+                .map(|r| r.bridges.retransmissions)
+                .sum::<u64>(),
+            report
+                .reports
+                .iter()
+                .map(|r| r.bridges.duplicates)
+                .sum::<u64>(),
             observed.seen.len(),
             observed.decided.len(),
             report.wall.as_secs_f64()
@@ -205,7 +231,7 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
     );
     // A telemetry period, and what the sampling task and the executor may
     // lag behind the simulator: some 20 ms of wall time, at this speed.
-    let lag = 0.1 + 0.02 * c.speed;
+    let lag = c.telemetry_period + 0.02 * c.speed;
     let misjudged = world::misjudged(&net, &fleet.homes(&net.drones), &events, lag);
     prop_assert!(
         misjudged.is_empty(),
