@@ -64,6 +64,8 @@ pub fn conforms(net: &Net, observed: &Observed, complete: bool) -> Result<(), St
     let mut stack = vec![start.clone()];
     let mut visited: HashSet<State> = HashSet::from([start]);
     let mut furthest = 0usize;
+    // What the drones showed next where the search got furthest.
+    let mut expected: Vec<Seen> = Vec::new();
     while let Some(s) = stack.pop() {
         if visited.len() > BUDGET {
             return Err(format!(
@@ -73,10 +75,11 @@ pub fn conforms(net: &Net, observed: &Observed, complete: bool) -> Result<(), St
         }
         let done: usize =
             s.group_start(&groups) + s.taken.iter().map(|&k| k as usize).sum::<usize>();
-        furthest = furthest.max(done);
         if s.group == groups.len() && (!complete || s.marking.is_final(net)) {
             return Ok(());
         }
+        let fresh = done > furthest || done == 0;
+        furthest = furthest.max(done);
         // The next event each drone may show now.
         let next: Vec<&Seen> = match groups.get(s.group) {
             Some(g) => drones
@@ -91,6 +94,9 @@ pub fn conforms(net: &Net, observed: &Observed, complete: bool) -> Result<(), St
                 .collect(),
             None => Vec::new(),
         };
+        if fresh {
+            expected = next.iter().map(|e| (*e).clone()).collect();
+        }
         for en in game::enabled(net, &s.marking, &mut oracle) {
             let t = net.transition(en.transition).expect("a transition");
             let after = |s: &State| -> Option<State> {
@@ -127,9 +133,12 @@ pub fn conforms(net: &Net, observed: &Observed, complete: bool) -> Result<(), St
             }
         }
     }
-    let stuck = seen
-        .get(furthest)
-        .map_or_else(|| "the final marking".to_string(), |e| format!("{e:?}"));
+    let stuck = if expected.is_empty() {
+        "the final marking".to_string()
+    } else {
+        let each: Vec<String> = expected.iter().map(|e| format!("{e:?}")).collect();
+        format!("any of\n  {}", each.join("\n  "))
+    };
     Err(format!(
         "no firing sequence of the net shows the observed trace: {furthest} of {} events \
          matched at most, then none reaches {stuck}",
