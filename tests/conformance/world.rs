@@ -4,9 +4,11 @@
 //! checks that the decision was right about the world. A guarded
 //! transition that fired at mission time `t` on a drone must have a guard
 //! that held on the drones' sampled telemetry (the run's `Telemetry`
-//! events, every 5 cm a drone moves) at some moment of `[t - lag, t]`:
-//! the executor reads its own drone's state a telemetry period late, and
-//! the samples are stamped when the sampling task reads them. Only guards
+//! events, every 5 cm a drone moves) at some moment of
+//! `[t - before, t + after]`: the executor reads its own drone's state a
+//! telemetry period late, and a sample is stamped when the sampling task
+//! reads it, which may be just after the executor acted on the same
+//! state. Only guards
 //! over the evaluating drone's own state are judged (the generated
 //! missions' conditions are all of that kind); one over another drone's
 //! state travels over a faulty link, as late as the faults make it.
@@ -89,8 +91,14 @@ impl Samples {
 }
 
 /// Every firing of a guarded transition whose guard the sampled world
-/// never made true in the `lag` seconds of mission time before it.
-pub fn misjudged(net: &Net, homes: &[Vec3], events: &[Event], lag: f64) -> Vec<String> {
+/// never made true from `before` seconds of mission time before it to
+/// `after` seconds after it.
+pub fn misjudged(
+    net: &Net,
+    homes: &[Vec3],
+    events: &[Event],
+    (before, after): (f64, f64),
+) -> Vec<String> {
     let samples = Samples::of(&net.drones, homes, events);
     let mut out = Vec::new();
     for e in events {
@@ -112,12 +120,12 @@ pub fn misjudged(net: &Net, homes: &[Vec3], events: &[Event], lag: f64) -> Vec<S
             continue;
         }
         let held = samples
-            .moments(e.time - lag, e.time)
+            .moments(e.time - before, e.time + after)
             .into_iter()
             .any(|s| samples.at(s).holds(cond).is_ok_and(|v| guard.holds_when(v)));
         if !held {
             out.push(format!(
-                "{} fired `{}` ({}) at {:.2} s, its guard false on every state sampled in the {lag:.2} s before",
+                "{} fired `{}` ({}) at {:.2} s, its guard false on every state sampled from {before:.2} s before to {after:.2} s after",
                 e.drone, t.label, t.id, e.time
             ));
         }
