@@ -3,9 +3,9 @@
 //! language) are sliced and flown by the real executor, every drone's slice
 //! in one process (`run_fleet`), on simulated drones with random airframes,
 //! random durations of the actions that do not move, a random telemetry
-//! period, a random simulation speed, over the in-process transport or zenoh on loopback, with the
-//! transport's fault injection (dropped, duplicated, reordered frames) on
-//! some runs. Then:
+//! period and a random simulation speed, over the in-process transport or
+//! zenoh on loopback, with the transport's fault injection (dropped,
+//! duplicated, reordered frames) on some runs. Then:
 //!
 //! - the merged observed trace (every drone's action starts, ends and
 //!   cancellations, from the one event stream) is a trace of the *global*
