@@ -9,114 +9,18 @@
 
 mod common;
 
-use std::path::PathBuf;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::mavlink::*;
+use common::rollout::{text, Rollout};
 use eamos_mid::mavlink::modes::CopterMode;
-
-struct Rollout {
-    dir: tempfile::TempDir,
-    fleet: PathBuf,
-    agent: Child,
-}
-
-impl Drop for Rollout {
-    fn drop(&mut self) {
-        let _ = self.agent.kill();
-        let _ = self.agent.wait();
-    }
-}
-
-impl Rollout {
-    /// A key pair, a fleet file binding `Copter` to the vehicle on `port`
-    /// with a roll-out port of its own, and the copter's agent started.
-    fn start(port: u16) -> Rollout {
-        let dir = tempfile::tempdir().unwrap();
-        let keygen = Command::new(env!("CARGO_BIN_EXE_eamos"))
-            .args(["keygen", "--out"])
-            .arg(dir.path())
-            .output()
-            .unwrap();
-        assert!(keygen.status.success(), "{keygen:?}");
-        let rollout = std::net::TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
-        let fleet = dir.path().join("fleet.toml");
-        std::fs::write(
-            &fleet,
-            format!(
-                "[keys]\ngcs = \"gcs.pub\"\n\n[rollout]\nlisten = [\"tcp/127.0.0.1:{rollout}\"]\n\n[failsafe]\non_abort = \"land\"\n\n[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n"
-            ),
-        )
-        .unwrap();
-        let agent = Command::new(env!("CARGO_BIN_EXE_eamos"))
-            .args(["agent", "--drone", "Copter", "--once", "--fleet"])
-            .arg(&fleet)
-            .arg("--out")
-            .arg(dir.path().join("agents"))
-            .stdout(Stdio::from(
-                std::fs::File::create(dir.path().join("agent.out")).unwrap(),
-            ))
-            .stderr(Stdio::from(
-                std::fs::File::create(dir.path().join("agent.err")).unwrap(),
-            ))
-            .spawn()
-            .unwrap();
-        Rollout { dir, fleet, agent }
-    }
-
-    fn deploy(&self) -> Command {
-        let mut c = Command::new(env!("CARGO_BIN_EXE_eamos"));
-        c.arg("deploy")
-            .arg(example("square.go"))
-            .arg("--fleet")
-            .arg(&self.fleet)
-            .arg("--out")
-            .arg(self.dir.path().join("gcs"))
-            .args(["--max-duration", "600", "--wait", "60"]);
-        c
-    }
-
-    fn agent_said(&self) -> String {
-        std::fs::read_to_string(self.dir.path().join("agent.out")).unwrap_or_default()
-    }
-
-    /// Where the agent keeps the mission's logs.
-    fn mission_logs(&self) -> PathBuf {
-        self.dir.path().join("agents").join("Square")
-    }
-
-    /// Waits for the agent to end (`--once`).
-    fn agent_ends(&mut self, limit: Duration) {
-        let deadline = Instant::now() + limit;
-        while self.agent.try_wait().unwrap().is_none() {
-            assert!(
-                Instant::now() < deadline,
-                "the agent still runs: {}",
-                self.agent_said()
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}\n{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 #[test]
 fn a_deployed_agent_flies_its_mavlink_copter_and_tells_its_crew_of_the_link_loss_failsafe() {
     let port = free_udp_port();
     let copter = Copter::start(port, 4.0, &[]);
-    let mut rollout = Rollout::start(port);
+    let mut rollout = Rollout::start(port, "", "");
     let deployed = rollout.deploy().output().unwrap();
     assert!(deployed.status.success(), "{}", text(&deployed));
     rollout.agent_ends(Duration::from_secs(60));
@@ -138,7 +42,7 @@ fn a_deployed_agent_flies_its_mavlink_copter_and_tells_its_crew_of_the_link_loss
 fn ctrl_c_on_eamos_deploy_mid_flight_lands_the_copter_through_its_failsafe_once() {
     let port = free_udp_port();
     let copter = Copter::start(port, 4.0, &[]);
-    let mut rollout = Rollout::start(port);
+    let mut rollout = Rollout::start(port, "", "");
     let mut deploy = rollout
         .deploy()
         .stdout(Stdio::null())

@@ -193,6 +193,9 @@ pub enum Kind {
     RolloutRefused { what: String, reason: String },
     /// An agent started a mission on the ground station's command.
     RolloutStarted { identity: String },
+    /// An agent restarted mid-flight flies on, from its journal, the
+    /// mission it had started.
+    RolloutResumed { identity: String },
     /// A mission an agent flew has ended.
     RolloutEnded { identity: String, outcome: String },
 }
@@ -207,6 +210,7 @@ impl Kind {
                 | Kind::RolloutAccepted { .. }
                 | Kind::RolloutRefused { .. }
                 | Kind::RolloutStarted { .. }
+                | Kind::RolloutResumed { .. }
                 | Kind::RolloutEnded { .. }
         )
     }

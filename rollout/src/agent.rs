@@ -17,6 +17,7 @@ use eamos_profile::ProfileTable;
 use eamos_seal::PublicKey;
 use eamos_slicer::Slice;
 
+use crate::flight::{self, Resumed};
 use crate::gate::{Gate, Offer};
 use crate::link::{open_session, rollout_options, DeployError};
 use crate::sessions::Sessions;
@@ -53,6 +54,9 @@ pub fn describe(kind: &Kind) -> Option<String> {
         }
         Kind::RolloutRefused { what, reason } => format!("refused a {what}: {reason}"),
         Kind::RolloutStarted { identity } => format!("started mission {identity}"),
+        Kind::RolloutResumed { identity } => {
+            format!("resumed mission {identity} from its journal")
+        }
         Kind::RolloutEnded { identity, outcome } => format!("mission {identity} ended: {outcome}"),
         // The crew at the drone reads what its autopilot would do wrong.
         Kind::AdapterWarning { detail } => format!("warning: {detail}"),
@@ -148,8 +152,10 @@ pub async fn run_agent(
     });
     std::fs::create_dir_all(&config.out)
         .map_err(|e| DeployError::Setup(format!("cannot create {}: {e}", config.out.display())))?;
-    let sessions = Sessions::load(&config.out.join(format!("{}.sessions", config.drone)))
+    let mut sessions = Sessions::load(&config.out.join(format!("{}.sessions", config.drone)))
         .map_err(DeployError::Setup)?;
+    let kept = flight::record_path(&config.out, &config.drone);
+    let resumed = flight::resume(&kept, &gate, &mut sessions).map_err(DeployError::Setup)?;
     let state = Arc::new(Mutex::new(AgentState {
         held: None,
         flying: None,
@@ -178,6 +184,37 @@ pub async fn run_agent(
     });
     let (ended_tx, mut ended_rx) = mpsc::unbounded_channel::<()>();
     let config = Arc::new(config);
+    // A flight this agent started before it was killed flies on at once:
+    // the other drones are in the air, and no second start will come.
+    if let Some(Resumed {
+        start,
+        slice,
+        digest,
+    }) = resumed
+    {
+        let mut s = state.lock().expect("agent state");
+        s.held = Some(HeldSlice {
+            slice: slice.clone(),
+            digest,
+            fleet: config.fleet.clone(),
+            session: start.session.clone(),
+        });
+        s.flying = Some(start.identity.clone());
+        say.say(Kind::RolloutResumed {
+            identity: start.identity.clone(),
+        });
+        let fleet = config.fleet.clone();
+        tokio::spawn(fly(
+            config.clone(),
+            slice,
+            fleet,
+            start,
+            state.clone(),
+            say.clone(),
+            ended_tx.clone(),
+            stop.clone(),
+        ));
+    }
     loop {
         tokio::select! {
             _ = stop.cancelled() => return Ok(()),
@@ -240,19 +277,20 @@ pub async fn run_agent(
                         None => gate
                             .check_start(&bytes, held.as_ref(), &s.sessions)
                             .and_then(|start| {
+                                let h = s.held.as_mut().expect("checked: a slice is held");
+                                // The slice kept from an earlier version joins this one.
+                                h.slice.mission_id = start.identity.clone();
+                                let flown = (h.slice.clone(), h.digest.clone(), h.fleet.clone());
+                                // Kept before the session is recorded: a crash
+                                // between the two still resumes (and records it).
+                                flight::keep(&kept, &bytes, &flown.0)?;
                                 s.sessions.record(&start.session, &start.identity)?;
-                                Ok(start)
+                                Ok((start, flown))
                             }),
                     };
                     match checked {
                         Err(reason) => Answer::Refused { reason },
-                        Ok(start) => {
-                            let (slice, digest, fleet) = {
-                                let h = s.held.as_mut().expect("checked: a slice is held");
-                                // The slice kept from an earlier version joins this one.
-                                h.slice.mission_id = start.identity.clone();
-                                (h.slice.clone(), h.digest.clone(), h.fleet.clone())
-                            };
+                        Ok((start, (slice, digest, fleet))) => {
                             s.flying = Some(start.identity.clone());
                             say.say(Kind::RolloutStarted { identity: start.identity.clone() });
                             tokio::spawn(fly(
@@ -288,6 +326,13 @@ async fn fly(
         max_duration: start.max_duration,
         seed: start.seed,
         out: config.out.join(&slice.mission),
+        // One journal per deploy session: a session flies once, so a
+        // journal found there is this flight's, interrupted.
+        journal: Some(flight::journal_dir(
+            &config.out,
+            &slice.mission,
+            &start.session,
+        )),
         stop: stop.child_token(),
         // The flight's events join the agent's own stream.
         events: Some(say.events.clone()),
@@ -306,6 +351,10 @@ async fn fly(
             .map(|r| outcome_text(&r.outcome))
             .unwrap_or_else(|| "no report".into()),
         Err(e) => format!("failed: {e}"),
+    };
+    let outcome = match flight::forget(&flight::record_path(&config.out, &config.drone)) {
+        Ok(()) => outcome,
+        Err(e) => format!("{outcome} ({e})"),
     };
     state.lock().expect("agent state").flying = None;
     say.say(Kind::RolloutEnded {

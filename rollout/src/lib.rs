@@ -51,13 +51,16 @@
 //! messages of a roll-out ([`wire`]), where agents and the ground station
 //! meet ([`link`]), the keys the fleet file names ([`keys`]), the deploy
 //! sessions an agent has started ([`sessions`]), an agent's checks of
-//! what it is sent ([`gate`]), the agent's loop ([`agent`]) and the ground
-//! station's side ([`ground`]). Flying a slice is the executor's
+//! what it is sent ([`gate`]), the flight an agent has started, kept on
+//! its disk so that a restarted agent flies on from its journal
+//! ([`flight`]), the agent's loop ([`agent`]) and the ground station's
+//! side ([`ground`]). Flying a slice is the executor's
 //! (`eamos_exec::runner`); deciding whether a message is signed by the
 //! trusted key is the seal's (`eamos_seal`). This crate must never fly
 //! anything itself, nor open a sealed message any other way.
 
 pub mod agent;
+pub mod flight;
 pub mod gate;
 pub mod ground;
 pub mod keys;

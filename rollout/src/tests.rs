@@ -10,6 +10,8 @@ use crate::link::{rollout_endpoints, rollout_options};
 use crate::sessions::Sessions;
 use crate::wire::{encode, AgentStatus, Answer, Held, SliceBundle, StartCommand};
 
+mod flight;
+
 const MISSION: &str = "package M\n\nvar D1 Quadcopter\nvar D2 Quadcopter\n\nfunc main() {\n\tD1.Takeoff(2)\n\tD2.Takeoff(2)\n}\n";
 const FLEET: &str = "[drones.D1]\nhome = { x = 0.0, y = 0.0, z = 0.0 }\n";
 

@@ -87,7 +87,7 @@ impl Answer {
 
 /// Decodes a whole message: trailing bytes are an error, so that one
 /// message has one encoding.
-fn decode<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, String> {
+pub(crate) fn decode<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, String> {
     let (v, rest) = postcard::take_from_bytes(bytes).map_err(|e| e.to_string())?;
     if !rest.is_empty() {
         return Err(format!("{} bytes after the message", rest.len()));

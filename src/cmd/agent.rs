@@ -6,8 +6,11 @@
 //! would. While it flies, it obeys only abort commands signed by that key
 //! and issued since the start; it logs any other and flies on. It starts
 //! each deploy session once (remembered in `OUT/<drone>.sessions`), so a
-//! recorded start played back is refused. Then it waits for the next version of the mission, unless
-//! `--once`. Exit status: 0 stopped (or, with `--once`, the mission
+//! recorded start played back is refused. While it flies it journals
+//! what it does (`OUT/<mission>/journal/<session>`) and keeps the started
+//! flight in `OUT/<drone>.flight`: killed mid-flight and started again, it
+//! flies on from the journal at once, every action run exactly once. Then
+//! it waits for the next version of the mission, unless `--once`. Exit status: 0 stopped (or, with `--once`, the mission
 //! completed), 1 the mission did not complete, 2 bad input.
 
 use std::path::PathBuf;

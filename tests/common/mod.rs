@@ -1,1 +1,2 @@
 pub mod mavlink;
+pub mod rollout;
