@@ -7,7 +7,9 @@
 //! - a lost link is reported within the link timeout, and the drone taken
 //!   back when the link returns;
 //! - a pilot who takes the drone over keeps it until giving it back;
-//! - arming refused names the autopilot's PreArm reason.
+//! - arming refused names the autopilot's PreArm reason;
+//! - the square closes within 0.3 m on a PX4-like vehicle whose reported
+//!   position wanders.
 //!
 //! The copter is the test vehicle in this process (see `tests/common/`):
 //! it outlives a killed agent as a real autopilot would, and the test can
@@ -21,8 +23,9 @@ use std::time::{Duration, Instant};
 
 use common::mavlink::*;
 use common::rollout::Rollout;
-use eamos_geo::Ned;
+use eamos_geo::{Ned, Vec3};
 use eamos_mid::mavlink::modes::CopterMode;
+use eamos_vehicle::Firmware;
 
 /// `eamos deploy` running in the background, its output in files.
 fn deploy(rollout: &Rollout) -> Child {
@@ -271,4 +274,56 @@ fn an_agent_whose_autopilot_refuses_to_arm_names_the_prearm_reason() {
         assert!(ended.contains(reason), "`{reason}` not in: {ended}");
     }
     assert!(copter.snapshot().on_ground);
+}
+
+#[test]
+fn the_square_closes_on_a_px4_vehicle_whose_position_wanders_flown_by_its_agent() {
+    let port = free_udp_port();
+    let copter = Copter::start_with(port, |o| {
+        o.autopilot = Firmware::Px4;
+        // Twice real time: PX4's 1 s offboard-loss time stays well above
+        // the 10 Hz setpoint stream.
+        o.speed = 2.0;
+        o.position_noise = 0.05;
+    });
+    let mut rollout = Rollout::start(port, "", "");
+    let flight = deploy(&rollout);
+
+    let finished = |leg: &'static str| {
+        move |r: &serde_json::Value| {
+            r["event"] == "action_finished" && r["action"] == leg && r["outcome"] == "ok"
+        }
+    };
+    rollout.wait_log(
+        "the take-off",
+        Duration::from_secs(120),
+        finished("Takeoff(2)"),
+    );
+    let start = copter.snapshot().position;
+    let mut corner = Vec3::new(start.x, start.y, 2.0);
+    for (leg, (dx, dy)) in [
+        ("FlyByX(4)", (4.0, 0.0)),
+        ("FlyByY(4)", (0.0, 4.0)),
+        ("FlyByX(-4)", (-4.0, 0.0)),
+        ("FlyByY(-4)", (0.0, -4.0)),
+    ] {
+        rollout.wait_log(leg, Duration::from_secs(60), finished(leg));
+        corner = corner + Vec3::new(dx, dy, 0.0);
+        let at = copter.snapshot().position;
+        assert!(
+            at.distance(corner) <= 0.3,
+            "after {leg} the copter is at {at}, {:.2} m from the corner {corner}",
+            at.distance(corner)
+        );
+    }
+    let (code, said) = deploy_ends(&rollout, flight, Duration::from_secs(120));
+    assert_eq!(code, Some(0), "{said}");
+    rollout.agent_ends(Duration::from_secs(60));
+    let landed = copter.snapshot();
+    assert!(landed.on_ground && !landed.armed, "{landed:?}");
+    let gap = (landed.position.x - start.x).hypot(landed.position.y - start.y);
+    assert!(
+        gap <= 0.3,
+        "the square did not close: landed {gap:.2} m from where it took off"
+    );
 }
