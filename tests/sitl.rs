@@ -22,6 +22,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use common::mavlink::*;
+use common::rollout::Rollout;
 use eamos_geo::Vec3;
 use eamos_mid::mavlink::dialect::{
     MavAutopilot, MavCmd, MavMessage, MavModeFlag, MavState, MavType, COMMAND_LONG_DATA,
@@ -59,12 +60,18 @@ impl Drop for Autopilot {
 /// Its TCP ports (5760 + 10 x instance and the two after) stay open for a
 /// second ground station: a pilot's.
 fn arducopter(instance: u32, port: u16) -> Autopilot {
+    arducopter_at(instance, port, 4)
+}
+
+/// [`arducopter`] at `speedup` times real time.
+fn arducopter_at(instance: u32, port: u16, speedup: u32) -> Autopilot {
     let binary = var("EAMOS_SITL_ARDUCOPTER");
     let defaults = var("EAMOS_SITL_ARDUCOPTER_DEFAULTS");
     let dir = tempfile::tempdir().unwrap();
     let child = Command::new(binary)
         .current_dir(dir.path())
-        .args(["-w", "--model", "+", "--speedup", "4", "--defaults"])
+        .args(["-w", "--model", "+", "--speedup", &speedup.to_string()])
+        .arg("--defaults")
         .arg(defaults)
         .arg("--home")
         .arg(format!("{},{},{},0", HOME.0, HOME.1, HOME.2))
@@ -245,6 +252,66 @@ fn sitl_px4_closes_the_square_of_experiment_a_in_offboard() {
     let last = last_position(&out, "Drone1");
     assert!(
         last.horizontal_norm() <= 0.8,
+        "the square did not close: last seen at {last}"
+    );
+}
+
+#[test]
+#[ignore = "needs a real ArduCopter SITL: EAMOS_SITL_ARDUCOPTER (see the module documentation)"]
+fn sitl_arducopter_agent_killed_mid_motion_resumes_from_its_journal() {
+    let port = free_udp_port();
+    // Real time: a 4 m leg lasts long enough to be cut.
+    let _sitl = arducopter_at(9, port, 1);
+    let mut rollout = Rollout::start_fleet(
+        &format!("origin = {{ lat = {}, lon = {} }}\n\n", HOME.0, HOME.1),
+        "on_lost = \"hold\"\ngrace = \"600s\"\n",
+        &format!(
+            "[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\nhome = {{ lat = {}, lon = {}, alt = 0.0 }}\n\n[drones.Copter.mavlink]\nready_timeout = 180\n",
+            HOME.0, HOME.1
+        ),
+    );
+    let mut deploy = rollout
+        .deploy()
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let leg = rollout.wait_log("the start of FlyByY", Duration::from_secs(240), |r| {
+        r["event"] == "action_started" && r["action"] == "FlyByY"
+    });
+    rollout.kill_agent();
+    assert!(
+        !rollout
+            .mission_log()
+            .iter()
+            .any(|r| r["event"] == "action_finished" && r["instance"] == leg["instance"]),
+        "the leg had ended before the kill"
+    );
+    rollout.restart_agent();
+    let deadline = Instant::now() + Duration::from_secs(240);
+    let status = loop {
+        if let Some(s) = deploy.try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "{}", rollout.agent_said());
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(status.success(), "{}", rollout.agent_said());
+    rollout.agent_ends(Duration::from_secs(60));
+    assert!(rollout.agent_said().contains("resumed mission"));
+    let log = rollout.mission_log();
+    let starts = log
+        .iter()
+        .filter(|r| r["event"] == "action_started")
+        .count();
+    let resumed = log
+        .iter()
+        .filter(|r| r["event"] == "action_resumed")
+        .count();
+    assert_eq!((starts, resumed), (8, 1), "{log:?}");
+    let last = last_position(&rollout.mission_logs(), "Copter");
+    assert!(
+        last.horizontal_norm() < 0.5,
         "the square did not close: last seen at {last}"
     );
 }

@@ -33,6 +33,16 @@ impl Rollout {
     /// drone's `mavlink` table), a roll-out port of its own, a key pair,
     /// and the copter's agent started with `--once`.
     pub fn start(port: u16, failsafe: &str, mavlink: &str) -> Rollout {
+        Rollout::start_fleet(
+            "",
+            failsafe,
+            &format!("[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n\n[drones.Copter.mavlink]\n{mavlink}"),
+        )
+    }
+
+    /// [`Rollout::start`] with the fleet file's top (`origin = ...`) and
+    /// the copter's tables given whole.
+    pub fn start_fleet(top: &str, failsafe: &str, copter: &str) -> Rollout {
         let dir = tempfile::tempdir().unwrap();
         let keygen = Command::new(env!("CARGO_BIN_EXE_eamos"))
             .args(["keygen", "--out"])
@@ -49,7 +59,7 @@ impl Rollout {
         std::fs::write(
             &fleet,
             format!(
-                "[keys]\ngcs = \"gcs.pub\"\n\n[rollout]\nlisten = [\"tcp/127.0.0.1:{rollout}\"]\n\n[failsafe]\non_abort = \"land\"\n{failsafe}\n[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n\n[drones.Copter.mavlink]\n{mavlink}"
+                "{top}[keys]\ngcs = \"gcs.pub\"\n\n[rollout]\nlisten = [\"tcp/127.0.0.1:{rollout}\"]\n\n[failsafe]\non_abort = \"land\"\n{failsafe}\n{copter}"
             ),
         )
         .unwrap();
