@@ -65,9 +65,20 @@ fn arducopter(instance: u32, port: u16) -> Autopilot {
 
 /// [`arducopter`] at `speedup` times real time.
 fn arducopter_at(instance: u32, port: u16, speedup: u32) -> Autopilot {
+    arducopter_with(instance, port, speedup, &[])
+}
+
+/// [`arducopter_at`] with `params` set over its defaults.
+fn arducopter_with(instance: u32, port: u16, speedup: u32, params: &[(&str, f64)]) -> Autopilot {
     let binary = var("EAMOS_SITL_ARDUCOPTER");
-    let defaults = var("EAMOS_SITL_ARDUCOPTER_DEFAULTS");
+    let mut defaults = var("EAMOS_SITL_ARDUCOPTER_DEFAULTS");
     let dir = tempfile::tempdir().unwrap();
+    if !params.is_empty() {
+        let extra = dir.path().join("test.parm");
+        let lines: String = params.iter().map(|(n, v)| format!("{n} {v}\n")).collect();
+        std::fs::write(&extra, lines).unwrap();
+        defaults = format!("{defaults},{}", extra.display());
+    }
     let child = Command::new(binary)
         .current_dir(dir.path())
         .args(["-w", "--model", "+", "--speedup", &speedup.to_string()])
@@ -314,4 +325,127 @@ fn sitl_arducopter_agent_killed_mid_motion_resumes_from_its_journal() {
         last.horizontal_norm() < 0.5,
         "the square did not close: last seen at {last}"
     );
+}
+
+#[test]
+#[ignore = "needs a real ArduCopter SITL: EAMOS_SITL_ARDUCOPTER (see the module documentation)"]
+fn sitl_arducopter_with_a_low_battery_refuses_to_arm_naming_its_prearm_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    // Its simulated battery holds 12.6 V: under 20 V it must not arm.
+    let _sitl = arducopter_with(10, port, 1, &[("BATT_ARM_VOLT", 20.0)]);
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(
+        &fleet,
+        format!("[drones.Copter]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\n\n[drones.Copter.mavlink]\nready_timeout = 30\n"),
+    )
+    .unwrap();
+    let flight = Flight::start(&example("square.go"), &fleet, &dir.path().join("out"));
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(180));
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("Copter: "))
+        .unwrap_or_else(|| panic!("no reason for Copter: {stdout}"));
+    assert!(
+        line.starts_with(
+            "Copter: the drone refused `Arm`: the vehicle was not ready to arm after 30 s"
+        ),
+        "{line}"
+    );
+    assert!(
+        line.contains("(autopilot: \"PreArm: Battery 1 below minimum arming voltage\")"),
+        "{line}"
+    );
+}
+
+/// A radio between the autopilot and eamos that the test can silence:
+/// what the autopilot sends to `from` goes to eamos on `to`, and eamos's
+/// answers go back, unless `silent`.
+struct Radio {
+    silent: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Radio {
+    fn start(from: u16, to: u16) -> Radio {
+        use std::net::UdpSocket;
+        use std::sync::atomic::{AtomicBool, Ordering};
+        use std::sync::{Arc, Mutex};
+        let silent = Arc::new(AtomicBool::new(false));
+        let air = UdpSocket::bind(("127.0.0.1", from)).unwrap();
+        let ground = UdpSocket::bind("127.0.0.1:0").unwrap();
+        ground.connect(("127.0.0.1", to)).unwrap();
+        let autopilot = Arc::new(Mutex::new(None));
+        let (a, g, s, ap) = (
+            air.try_clone().unwrap(),
+            ground.try_clone().unwrap(),
+            silent.clone(),
+            autopilot.clone(),
+        );
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 2048];
+            while let Ok((n, peer)) = a.recv_from(&mut buf) {
+                *ap.lock().unwrap() = Some(peer);
+                if !s.load(Ordering::Relaxed) {
+                    let _ = g.send(&buf[..n]);
+                }
+            }
+        });
+        let s = silent.clone();
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 2048];
+            loop {
+                let n = match ground.recv(&mut buf) {
+                    Ok(n) => n,
+                    // Nobody listens on `to` yet: eamos is starting.
+                    Err(_) => {
+                        std::thread::sleep(Duration::from_millis(50));
+                        continue;
+                    }
+                };
+                let peer = *autopilot.lock().unwrap();
+                if let (false, Some(peer)) = (s.load(Ordering::Relaxed), peer) {
+                    let _ = air.send_to(&buf[..n], peer);
+                }
+            }
+        });
+        Radio { silent }
+    }
+
+    fn set_silent(&self, silent: bool) {
+        self.silent
+            .store(silent, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+#[test]
+#[ignore = "needs a real ArduCopter SITL: EAMOS_SITL_ARDUCOPTER (see the module documentation)"]
+fn sitl_arducopter_lost_link_is_reported_in_time_and_the_drone_taken_back_when_it_returns() {
+    let dir = tempfile::tempdir().unwrap();
+    let (air, port) = (free_udp_port(), free_udp_port());
+    let radio = Radio::start(air, port);
+    let _sitl = arducopter_at(11, air, 1);
+    let fleet = fleet_at_home(
+        dir.path(),
+        "Copter",
+        &format!("udpin:127.0.0.1:{port}"),
+        "link_timeout = 2\n",
+    );
+    let mut flight = Flight::start(&example("square.go"), &fleet, &dir.path().join("out"));
+    flight.wait_for("Copter started FlyByX(4)", Duration::from_secs(240));
+    radio.set_silent(true);
+    let silent_at = Instant::now();
+    let lost = flight.wait_for("Copter failed FlyByX(4)", Duration::from_secs(30));
+    assert!(lost.contains("lost the link"), "{lost}");
+    assert!(
+        silent_at.elapsed() < Duration::from_secs(2) + Duration::from_secs(3),
+        "a 2 s link timeout reported after {:?}",
+        silent_at.elapsed()
+    );
+    flight.wait_for("Copter warning: the link is lost", Duration::from_secs(30));
+    std::thread::sleep(Duration::from_secs(3));
+    radio.set_silent(false);
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(240));
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    assert!(stderr.contains("Copter failsafe: land"), "{stderr}");
 }
