@@ -148,3 +148,37 @@ fn experiment_c_runs_as_one_process_per_peer_over_zenoh() {
 fn listing_1_runs_as_one_process_per_peer_over_zenoh() {
     fly_as_separate_processes("listing01_demo.go", Duration::from_secs(120));
 }
+
+#[test]
+fn a_peer_whose_port_is_taken_says_which_port_and_where_the_fleet_file_sets_it() {
+    let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = taken.local_addr().unwrap().port();
+    let dir = tempfile::tempdir().unwrap();
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(
+        &fleet,
+        format!("[gcs]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n"),
+    )
+    .unwrap();
+    let out = Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("run")
+        .arg(paper("experiment_b.go"))
+        .arg("--fleet")
+        .arg(&fleet)
+        .args(["--transport", "zenoh", "--out"])
+        .arg(dir.path().join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains(&format!(
+            "GCS cannot listen on tcp/127.0.0.1:{port}: the port is taken by another program (this mission has 3 peers)"
+        )),
+        "{stderr}"
+    );
+    assert!(stderr.contains("`[gcs] listen = [...]`"), "{stderr}");
+    // Not zenoh's own words, which name its source files.
+    assert!(!stderr.contains(".rs:"), "{stderr}");
+}

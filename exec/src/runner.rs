@@ -397,7 +397,18 @@ async fn endpoint(
         TransportKind::InProcess => hub.connect(peer, &reads),
         TransportKind::Zenoh => {
             let opts = fleet.zenoh_options(&slice.mission_id, all, peer);
-            zenoh::open(&slice.mission_id, peer, &reads, &opts).await?
+            zenoh::open(&slice.mission_id, peer, &reads, &opts)
+                .await
+                .map_err(|e| match e {
+                    TransportError::PortTaken {
+                        peer, endpoints, ..
+                    } => TransportError::PortTaken {
+                        peer,
+                        endpoints,
+                        fleet: Some(all.len()),
+                    },
+                    e => e,
+                })?
         }
     };
     if let Some(f) = faults {

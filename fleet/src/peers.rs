@@ -26,7 +26,7 @@ impl Fleet {
         };
         vec![format!(
             "{scheme}/127.0.0.1:{}",
-            loopback_port(mission_id, k)
+            loopback_port(mission_id, peers.len(), k)
         )]
     }
 
@@ -56,22 +56,28 @@ impl Fleet {
     }
 }
 
-/// The loopback port of peer number `k` of a mission (`k` = 0 for the
-/// ground station, 1 + the drone's index for a drone):
-/// `20000 + 64 * (FNV-1a(mission id) mod 199) + k`.
+/// The loopback port of peer number `k` of a mission of `peers` peers
+/// (`k` = 0 for the ground station, 1 + the drone's index for a drone):
+/// `20000 + block * (FNV-1a(mission id) mod (12768 / block)) + k`, where
+/// the block is the fleet's size rounded up to a power of two, at least 64.
 ///
 /// Every process of one mission derives the same ports with no file to
-/// share; two different missions are unlikely to meet in the same block
-/// of 64; the ports stay below 32768, where Linux starts handing out
-/// ephemeral ports; a fleet of more than 63 drones needs explicit
-/// endpoints.
-pub fn loopback_port(mission_id: &str, k: usize) -> u16 {
+/// share (each knows the mission's peers); a mission's peers never share a
+/// port, whatever the fleet's size; two different missions are unlikely to
+/// meet in the same block; the ports stay below 32768, where Linux starts
+/// handing out ephemeral ports. A fleet up to 63 drones keeps the ports it
+/// always had.
+pub fn loopback_port(mission_id: &str, peers: usize, k: usize) -> u16 {
+    const FIRST: u32 = 20000;
+    const SPAN: u32 = 32768 - FIRST;
     let mut h: u32 = 0x811c_9dc5;
     for b in mission_id.bytes() {
         h ^= u32::from(b);
         h = h.wrapping_mul(0x0100_0193);
     }
-    (20000 + 64 * (h % 199) + (k as u32 % 64)) as u16
+    let block = (peers.max(64) as u32).next_power_of_two().min(SPAN);
+    let blocks = (SPAN / block).max(1);
+    (FIRST + block * (h % blocks) + (k as u32 % block)) as u16
 }
 
 #[cfg(test)]
@@ -122,7 +128,7 @@ connect = "udpin:0.0.0.0:14550"
 
     #[test]
     fn loopback_ports_are_distinct_per_peer_and_the_same_in_every_process() {
-        let ports: Vec<u16> = (0..4).map(|k| loopback_port("mission-x", k)).collect();
+        let ports: Vec<u16> = (0..4).map(|k| loopback_port("mission-x", 4, k)).collect();
         let mut d = ports.clone();
         d.sort();
         d.dedup();
@@ -130,7 +136,7 @@ connect = "udpin:0.0.0.0:14550"
         assert_eq!(
             ports,
             (0..4)
-                .map(|k| loopback_port("mission-x", k))
+                .map(|k| loopback_port("mission-x", 4, k))
                 .collect::<Vec<_>>()
         );
         assert!(ports.iter().all(|p| (20000..32768).contains(p)));
@@ -139,6 +145,28 @@ connect = "udpin:0.0.0.0:14550"
         assert_eq!(
             f.listen("mission-x", &peers, "D1"),
             vec![format!("tcp/127.0.0.1:{}", ports[1])]
+        );
+    }
+
+    #[test]
+    fn no_two_peers_of_a_fleet_of_any_size_share_a_loopback_port() {
+        for n in [2, 63, 64, 65, 100, 101, 250, 1000, 5000] {
+            let mut ports: Vec<u16> = (0..n).map(|k| loopback_port("mission-y", n, k)).collect();
+            assert!(
+                ports.iter().all(|p| (20000..32768).contains(p)),
+                "{n} peers"
+            );
+            ports.sort_unstable();
+            ports.dedup();
+            assert_eq!(ports.len(), n, "{n} peers share ports");
+        }
+        // The ports of a small fleet did not move.
+        let h = "mission-y".bytes().fold(0x811c_9dc5_u32, |h, b| {
+            (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+        });
+        assert_eq!(
+            loopback_port("mission-y", 10, 3),
+            (20000 + 64 * (h % 199) + 3) as u16
         );
     }
 }

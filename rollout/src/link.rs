@@ -21,7 +21,7 @@ pub fn rollout_endpoints(fleet: &Fleet) -> (Vec<String>, Vec<String>) {
         // Slot 63 of the fleet's block: a mission's peers use the first
         // slots of their own block, so the two do not meet.
         let scope = format!("rollout-{}", fleet_version(fleet));
-        vec![format!("tcp/127.0.0.1:{}", loopback_port(&scope, 63))]
+        vec![format!("tcp/127.0.0.1:{}", loopback_port(&scope, 64, 63))]
     } else {
         fleet.rollout.listen.clone()
     };

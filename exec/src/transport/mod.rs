@@ -105,6 +105,13 @@ pub enum TransportError {
     Config(String),
     #[error("cannot open the transport: {0}")]
     Open(String),
+    #[error("{peer} cannot listen on {}: the port is taken by another program{}; give {peer} endpoints of its own in the fleet file (`[gcs] listen = [...]` for the ground station, `zenoh = {{ listen = [...] }}` in `[drones.<drone>]` for a drone)", .endpoints.join(", "), .fleet.map(|n| format!(" (this mission has {n} peers)")).unwrap_or_default())]
+    PortTaken {
+        peer: PeerId,
+        endpoints: Vec<String>,
+        /// The mission's number of peers, where known.
+        fleet: Option<usize>,
+    },
     #[error("cannot send: {0}")]
     Send(String),
     #[error("cannot decode a frame: {0}")]

@@ -161,9 +161,19 @@ pub async fn open(
     for r in reads {
         check_chunk("peer name", r)?;
     }
-    let session = zenoh::open(config(options)?)
-        .await
-        .map_err(|e| TransportError::Open(e.to_string()))?;
+    let session = zenoh::open(config(options)?).await.map_err(|e| {
+        let e = e.to_string();
+        // zenoh's own words name its source files: the crew needs the port.
+        if e.contains("Address already in use") {
+            TransportError::PortTaken {
+                peer: me.to_string(),
+                endpoints: options.listen.clone(),
+                fleet: None,
+            }
+        } else {
+            TransportError::Open(e)
+        }
+    })?;
 
     let (frames_tx, frames) = mpsc::unbounded_channel();
     let (telemetry_tx, telemetry) = mpsc::unbounded_channel();
