@@ -12,6 +12,7 @@
 //!
 //! [zenoh]
 //! scouting = false                 # multicast scouting (off by default)
+//! routers = ["tcp/10.0.0.1:7447", "tcp/10.0.0.2:7447"]  # join through routers (optional)
 //!
 //! [sim]                            # simulator settings (optional)
 //! step = 0.02
@@ -65,7 +66,9 @@
 //! [`default_home`]). A peer without `listen` endpoints listens on a
 //! loopback port derived from the mission and the peer (see
 //! [`loopback_port`]); every peer connects to every other peer's endpoints
-//! unless it lists its own `connect` endpoints.
+//! unless it lists its own `connect` endpoints. With `routers`, no peer
+//! listens: each joins as a client of the first router that answers, and
+//! of the next one when it is lost (see `eamos router`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -162,6 +165,11 @@ pub struct KeySettings {
 pub struct ZenohSettings {
     #[serde(default)]
     pub scouting: bool,
+    /// The endpoints of the fleet's zenoh routers (`eamos router`): when
+    /// given, every peer joins through them as a client instead of
+    /// connecting to every other peer.
+    #[serde(default)]
+    pub routers: Vec<String>,
     /// TLS with mutual authentication for every peer (see [`FleetTls`]).
     #[serde(default)]
     pub tls: Option<FleetTls>,

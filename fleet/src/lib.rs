@@ -37,4 +37,4 @@ pub use file::{
 pub use identity::MissionId;
 pub use peers::loopback_port;
 pub use policy::{Grace, Liveness, OnLost};
-pub use zenoh::{TlsFiles, ZenohOptions, GCS};
+pub use zenoh::{Mode, TlsFiles, ZenohOptions, GCS};

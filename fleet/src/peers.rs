@@ -5,7 +5,7 @@
 //! business, not this crate's.
 
 use crate::file::Fleet;
-use crate::zenoh::{ZenohOptions, GCS};
+use crate::zenoh::{Mode, ZenohOptions, GCS};
 
 impl Fleet {
     /// The listen endpoints of a peer (`GCS` or a drone).
@@ -33,6 +33,15 @@ impl Fleet {
     /// How `peer` joins zenoh: its listen endpoints, and the others' as
     /// connect endpoints unless the file gives its own.
     pub fn zenoh_options(&self, mission_id: &str, peers: &[String], peer: &str) -> ZenohOptions {
+        if !self.zenoh.routers.is_empty() {
+            return ZenohOptions {
+                listen: Vec::new(),
+                connect: self.zenoh.routers.clone(),
+                scouting: false,
+                tls: self.tls_files(peer),
+                mode: Mode::Client,
+            };
+        }
         let connect_given = if peer == GCS {
             self.gcs.connect.clone()
         } else {
@@ -52,7 +61,33 @@ impl Fleet {
             connect,
             scouting: self.zenoh.scouting,
             tls: self.tls_files(peer),
+            mode: Mode::Peer,
         }
+    }
+
+    /// How router number `n` (from 1, in the order of `[zenoh] routers`)
+    /// runs: it listens on its own endpoint and connects to the other
+    /// routers, so that clients of different routers reach each other.
+    pub fn router_options(&self, n: usize) -> Result<ZenohOptions, String> {
+        let routers = &self.zenoh.routers;
+        if n == 0 || n > routers.len() {
+            return Err(match routers.len() {
+                0 => "the fleet file names no routers: add `routers = [...]` to its `[zenoh]` table".to_string(),
+                k => format!("router {n} does not exist: the fleet file's `[zenoh] routers` names {k} (number them from 1)"),
+            });
+        }
+        Ok(ZenohOptions {
+            listen: vec![routers[n - 1].clone()],
+            connect: routers
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| *i != n - 1)
+                .map(|(_, r)| r.clone())
+                .collect(),
+            scouting: false,
+            tls: None,
+            mode: Mode::Router,
+        })
     }
 }
 
@@ -168,5 +203,38 @@ connect = "udpin:0.0.0.0:14550"
             loopback_port("mission-y", 10, 3),
             (20000 + 64 * (h % 199) + 3) as u16
         );
+    }
+
+    #[test]
+    fn with_routers_every_peer_joins_as_their_client_and_listens_nowhere() {
+        let f = Fleet::parse_unbound(
+            "[zenoh]\nrouters = [\"tcp/10.0.0.1:7447\", \"tcp/10.0.0.2:7447\"]\n\n[gcs]\nlisten = [\"tcp/127.0.0.1:9000\"]\n",
+            "fleet.toml",
+        )
+        .unwrap();
+        let peers: Vec<String> = ["GCS", "D1", "D2"].map(String::from).to_vec();
+        for peer in &peers {
+            let o = f.zenoh_options("m", &peers, peer);
+            assert_eq!(o.mode, Mode::Client, "{peer}");
+            assert!(o.listen.is_empty(), "{peer}: {o:?}");
+            assert_eq!(o.connect, ["tcp/10.0.0.1:7447", "tcp/10.0.0.2:7447"]);
+        }
+        // Each router listens on its own endpoint and joins the others.
+        let r2 = f.router_options(2).unwrap();
+        assert_eq!(r2.mode, Mode::Router);
+        assert_eq!(r2.listen, ["tcp/10.0.0.2:7447"]);
+        assert_eq!(r2.connect, ["tcp/10.0.0.1:7447"]);
+        let e = f.router_options(3).unwrap_err();
+        assert!(
+            e.contains("router 3 does not exist") && e.contains("names 2"),
+            "{e}"
+        );
+        assert!(f.router_options(0).is_err());
+        let e = Fleet::default().router_options(1).unwrap_err();
+        assert!(e.contains("names no routers"), "{e}");
+        // Without routers: the mesh, as before.
+        let mesh = Fleet::default().zenoh_options("m", &peers, "D1");
+        assert_eq!(mesh.mode, Mode::Peer);
+        assert_eq!(mesh.connect.len(), 2);
     }
 }

@@ -17,6 +17,32 @@ pub struct ZenohOptions {
     pub scouting: bool,
     /// TLS with mutual authentication; every endpoint must then be `tls/`.
     pub tls: Option<TlsFiles>,
+    /// How it joins: as a peer of a mesh, or as a client of routers.
+    pub mode: Mode,
+}
+
+/// How a process joins the zenoh network (zenoh's own modes).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// Every peer connects to every other: the default, for small fleets.
+    #[default]
+    Peer,
+    /// Joins through a router (the first of `connect` that answers, the
+    /// next one when it is lost): a fleet that outgrows a full mesh.
+    Client,
+    /// Routes the clients' traffic, and the other routers'.
+    Router,
+}
+
+impl Mode {
+    /// The mode as zenoh's configuration spells it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Mode::Peer => "peer",
+            Mode::Client => "client",
+            Mode::Router => "router",
+        }
+    }
 }
 
 /// The files of one peer for TLS with mutual authentication (PEM).

@@ -11,5 +11,6 @@ pub mod gen;
 pub mod keygen;
 pub mod mission;
 pub mod plan;
+pub mod router;
 pub mod run;
 pub mod sim_vehicle;

@@ -100,7 +100,7 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
     };
     let scouting = if options.scouting { "true" } else { "false" };
     let mut settings = vec![
-        ("mode", json("peer")),
+        ("mode", json(options.mode.as_str())),
         ("listen/endpoints", list(&options.listen)),
         ("connect/endpoints", list(&options.connect)),
         ("scouting/multicast/enabled", scouting.to_string()),
@@ -146,6 +146,33 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
             .map_err(|e| TransportError::Config(format!("{k} = {v}: {e}")))?;
     }
     Ok(c)
+}
+
+/// Runs a zenoh router of the fleet (`eamos router`) until `stop`: it
+/// carries the traffic of the peers that join through it as clients, and
+/// passes on what the other routers carry, so that losing one router loses
+/// only the links through it, which its clients open again to the next.
+pub async fn route(
+    options: &ZenohOptions,
+    stop: tokio_util::sync::CancellationToken,
+) -> Result<(), TransportError> {
+    let session = zenoh::open(config(options)?).await.map_err(|e| {
+        let e = e.to_string();
+        if e.contains("Address already in use") {
+            TransportError::PortTaken {
+                peer: "the router".to_string(),
+                endpoints: options.listen.clone(),
+                fleet: None,
+            }
+        } else {
+            TransportError::Open(e)
+        }
+    })?;
+    stop.cancelled().await;
+    session
+        .close()
+        .await
+        .map_err(|e| TransportError::Open(e.to_string()))
 }
 
 /// Opens a zenoh peer for `me` in `mission`, subscribed to the tokens and
@@ -687,6 +714,7 @@ mod tests {
     #[test]
     fn the_configuration_is_a_loopback_peer_without_scouting() {
         let c = config(&ZenohOptions {
+            mode: Default::default(),
             listen: vec![tcp(7447)],
             connect: vec![tcp(7448)],
             scouting: false,
@@ -813,6 +841,7 @@ mod tests {
             "D1",
             &["D2".into()],
             &ZenohOptions {
+                mode: Default::default(),
                 listen: vec![tcp(pa)],
                 connect: vec![tcp(pb)],
                 scouting: false,
@@ -826,6 +855,7 @@ mod tests {
             "D2",
             &[],
             &ZenohOptions {
+                mode: Default::default(),
                 listen: vec![tcp(pb)],
                 connect: vec![tcp(pa)],
                 scouting: false,
@@ -882,6 +912,7 @@ mod tests {
             "D1",
             &[],
             &ZenohOptions {
+                mode: Default::default(),
                 listen: vec![tcp(pa)],
                 connect: vec![tcp(pb)],
                 scouting: false,
@@ -895,6 +926,7 @@ mod tests {
             "D2",
             &[],
             &ZenohOptions {
+                mode: Default::default(),
                 listen: vec![tcp(pb)],
                 connect: vec![tcp(pa)],
                 scouting: false,
@@ -998,6 +1030,7 @@ mod tests {
         let pki = Pki::new("fleet CA");
         let files = pki.peer("D1", &pki);
         let c = config(&ZenohOptions {
+            mode: Default::default(),
             listen: vec![tls(7447)],
             connect: vec![tls(7448)],
             scouting: false,
@@ -1028,6 +1061,7 @@ mod tests {
     fn a_plain_tcp_endpoint_beside_certificates_is_refused() {
         let pki = Pki::new("fleet CA");
         let e = config(&ZenohOptions {
+            mode: Default::default(),
             listen: vec![tls(7447)],
             connect: vec![tcp(7448)],
             scouting: false,
@@ -1089,6 +1123,7 @@ mod tests {
             me,
             &[],
             &ZenohOptions {
+                mode: Default::default(),
                 listen: vec![tls(listen)],
                 connect: connect.iter().map(|p| tls(*p)).collect(),
                 scouting: false,

@@ -112,6 +112,11 @@ impl Fleet {
                 None => Ok(()),
             };
         };
+        if !self.zenoh.routers.is_empty() {
+            return Err(error(
+                "[zenoh] routers with [zenoh.tls] are not supported yet: a fleet joins through routers in clear text, or through a mesh with TLS".to_string(),
+            ));
+        }
         if fleet.certificate.is_some() != fleet.key.is_some() {
             return Err(error(
                 "[zenoh.tls] needs both `certificate` and `key`, or neither".to_string(),
@@ -247,6 +252,19 @@ tls = { certificate = "d2.pem", key = "d2.key" }
         let z = f.zenoh_options("abc", &peers, "GCS");
         assert_eq!(z.tls, None);
         assert!(z.listen[0].starts_with("tcp/"));
+    }
+
+    #[test]
+    fn routers_with_tls_are_refused_rather_than_left_unreachable() {
+        let e = parse(
+            "[zenoh]\nrouters = [\"tls/10.0.0.1:7447\"]\n\n[zenoh.tls]\nca = \"ca.pem\"\ncertificate = \"all.pem\"\nkey = \"all.key\"\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("routers with [zenoh.tls] are not supported yet"),
+            "{e}"
+        );
     }
 
     #[test]
