@@ -70,6 +70,18 @@ fn arducopter_at(instance: u32, port: u16, speedup: u32) -> Autopilot {
 
 /// [`arducopter_at`] with `params` set over its defaults.
 fn arducopter_with(instance: u32, port: u16, speedup: u32, params: &[(&str, f64)]) -> Autopilot {
+    arducopter_at_home(instance, port, speedup, params, HOME)
+}
+
+/// [`arducopter_with`] with its home at `home` (latitude, longitude,
+/// altitude above the sea).
+fn arducopter_at_home(
+    instance: u32,
+    port: u16,
+    speedup: u32,
+    params: &[(&str, f64)],
+    home: (f64, f64, f64),
+) -> Autopilot {
     let binary = var("EAMOS_SITL_ARDUCOPTER");
     let mut defaults = var("EAMOS_SITL_ARDUCOPTER_DEFAULTS");
     let dir = tempfile::tempdir().unwrap();
@@ -85,7 +97,7 @@ fn arducopter_with(instance: u32, port: u16, speedup: u32, params: &[(&str, f64)
         .arg("--defaults")
         .arg(defaults)
         .arg("--home")
-        .arg(format!("{},{},{},0", HOME.0, HOME.1, HOME.2))
+        .arg(format!("{},{},{},0", home.0, home.1, home.2))
         .args(["-I", &instance.to_string(), "--sysid", "1"])
         .args(["--serial0", &format!("udpclient:127.0.0.1:{port}")])
         .stdin(Stdio::null())
@@ -99,13 +111,18 @@ fn arducopter_with(instance: u32, port: u16, speedup: u32, params: &[(&str, f64)
 /// PX4 SITL instance `instance` with its SIH quadcopter at `HOME`: its
 /// offboard link sends to UDP 14540 + instance, as system instance + 1.
 fn px4(instance: u32) -> Autopilot {
+    px4_at_home(instance, HOME)
+}
+
+/// [`px4`] with its home at `home`.
+fn px4_at_home(instance: u32, home: (f64, f64, f64)) -> Autopilot {
     let build = PathBuf::from(var("EAMOS_SITL_PX4"));
     let dir = tempfile::tempdir().unwrap();
     let child = Command::new(build.join("bin/px4"))
         .env("PX4_SIM_MODEL", "sihsim_quadx")
-        .env("PX4_HOME_LAT", HOME.0.to_string())
-        .env("PX4_HOME_LON", HOME.1.to_string())
-        .env("PX4_HOME_ALT", HOME.2.to_string())
+        .env("PX4_HOME_LAT", home.0.to_string())
+        .env("PX4_HOME_LON", home.1.to_string())
+        .env("PX4_HOME_ALT", home.2.to_string())
         .args(["-d", "-i", &instance.to_string(), "-w"])
         .arg(dir.path())
         .arg(build.join("etc"))
@@ -448,4 +465,83 @@ fn sitl_arducopter_lost_link_is_reported_in_time_and_the_drone_taken_back_when_i
     let (code, stdout, stderr) = flight.finish(Duration::from_secs(240));
     assert_eq!(code, Some(1), "{stdout}\n{stderr}");
     assert!(stderr.contains("Copter failsafe: land"), "{stderr}");
+}
+
+/// `HOME` moved `east` metres east.
+fn east_of_home(east: f64) -> (f64, f64, f64) {
+    let metres_per_degree = 111_320.0 * HOME.0.to_radians().cos();
+    (HOME.0, HOME.1 + east / metres_per_degree, HOME.2)
+}
+
+#[test]
+#[ignore = "needs real ArduCopter and PX4 SITLs: EAMOS_SITL_ARDUCOPTER and EAMOS_SITL_PX4 (see the module documentation)"]
+fn sitl_arducopter_and_px4_fly_experiment_c_beside_a_simulated_drone() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    let instance = 5;
+    let _ardu = arducopter_at_home(12, port, 1, &[], HOME);
+    let _px4 = px4_at_home(instance, east_of_home(3.0));
+    let home =
+        |(lat, lon, _): (f64, f64, f64)| format!("{{ lat = {lat}, lon = {lon}, alt = 0.0 }}");
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(
+        &fleet,
+        format!(
+            "origin = {{ lat = {}, lon = {} }}\n\n[drones.Drone1]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{port}\"\nhome = {}\n\n[drones.Drone1.mavlink]\nready_timeout = 180\n\n[drones.Drone2]\nadapter = \"mavlink\"\nconnect = \"udpin:127.0.0.1:{}\"\nhome = {}\n\n[drones.Drone2.mavlink]\nready_timeout = 180\narrival_tolerance = 0.4\nsettle_speed = 0.5\n\n[drones.Drone3]\nhome = {}\n",
+            HOME.0,
+            HOME.1,
+            home(HOME),
+            14540 + instance,
+            home(east_of_home(3.0)),
+            home(east_of_home(6.0)),
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let mission =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/missions/paper/experiment_c.go");
+    let flight = Flight::start_with(&mission, &fleet, &out, &["--speed", "1"]);
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(400));
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("ExperimentC: completed"), "{stdout}");
+    // Each real copter closed its 1 m square where it took off (PX4's SIH
+    // to its accuracy, see the PX4 test above).
+    for (drone, within) in [("Drone1", 0.5), ("Drone2", 0.8)] {
+        let last = last_position(&out, drone);
+        assert!(
+            last.horizontal_norm() <= within,
+            "{drone}: the square did not close: last seen at {last}"
+        );
+    }
+}
+
+#[test]
+#[ignore = "needs a real ArduCopter SITL: EAMOS_SITL_ARDUCOPTER (see the module documentation)"]
+fn sitl_arducopter_aborted_mid_flight_lands_through_its_failsafe_exactly_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    let _sitl = arducopter_at(13, port, 1);
+    let fleet = fleet_at_home(dir.path(), "Copter", &format!("udpin:127.0.0.1:{port}"), "");
+    let out = dir.path().join("out");
+    let mut flight = Flight::start(&example("square.go"), &fleet, &out);
+    flight.wait_for("Copter started FlyByX(4)", Duration::from_secs(240));
+    let interrupted = Command::new("kill")
+        .args(["-INT", &flight.child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(interrupted.success());
+    let (code, stdout, stderr) = flight.finish(Duration::from_secs(240));
+    assert_eq!(code, Some(1), "{stdout}\n{stderr}");
+    assert!(stderr.contains("Copter failsafe: land"), "{stderr}");
+    let failsafes = mission_events(&out, "Copter", "failsafe");
+    assert_eq!(failsafes.len(), 1, "{failsafes:?}");
+    let finished = mission_events(&out, "Copter", "failsafe_finished");
+    assert_eq!(finished.len(), 1, "{finished:?}");
+    assert_eq!(finished[0]["outcome"], "ok");
+    // It landed where the abort found it, short of the leg's end.
+    let last = last_position(&out, "Copter");
+    assert!(
+        last.x < 3.5,
+        "it flew the leg to its end: last seen at {last}"
+    );
 }
