@@ -190,11 +190,12 @@ impl Index {
             .map(|d| d.ty.as_str())
     }
 
-    /// Events in order of first appearance.
+    /// Events in order of first appearance (an empty one, being typed,
+    /// left out).
     pub fn events(&self) -> Vec<&str> {
         let mut seen = Vec::new();
         for o in &self.occurrences {
-            if o.kind == Kind::Event && !seen.contains(&o.name.as_str()) {
+            if o.kind == Kind::Event && !o.name.is_empty() && !seen.contains(&o.name.as_str()) {
                 seen.push(o.name.as_str());
             }
         }

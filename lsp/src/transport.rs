@@ -69,7 +69,17 @@ fn read_loop(mut input: impl BufRead, messages: &Sender<Message>, raw: &Sender<V
             }
         };
         let id = value.get("id").cloned().unwrap_or(Value::Null);
+        let has_method = value.get("method").is_some();
         match serde_json::from_value::<Message>(value) {
+            // A bad request can read as a response (`id` and nothing
+            // else the response needs): it is still a bad request.
+            Ok(Message::Response(_)) if has_method => {
+                let _ = raw.send(error(
+                    id,
+                    -32600,
+                    "invalid request: `method` is not a string",
+                ));
+            }
             Ok(msg) => {
                 let exit = matches!(&msg, Message::Notification(n) if n.method == "exit");
                 if messages.send(msg).is_err() || exit {
