@@ -81,6 +81,10 @@ mod tests {
         assert_eq!(ix.position(text, x), Position::new(1, 3));
         assert_eq!(ix.offset(text, Position::new(1, 3)), x);
         assert_eq!(ix.offset(text, Position::new(1, 1)), 4);
+        let text = "\u{e9}\u{e9}\u{e9}x";
+        let ix = LineIndex::new(text);
+        assert_eq!(ix.offset(text, Position::new(0, 3)), 6);
+        assert_eq!(ix.position(text, 6), Position::new(0, 3));
     }
 
     #[test]
