@@ -227,3 +227,18 @@ async def test_a_deadlock_is_found_on_save_with_its_counterexample(client: Langu
     assert d.range.start.line in (11, 17), d.range
     assert d.related_information, "the counterexample comes as related information"
     assert any("counterexample" in r.message for r in d.related_information)
+
+
+async def test_the_fleet_file_beside_the_mission_gives_the_airspace_on_save(
+    client: LanguageClient, paper, tmp_path
+):
+    # A 10 m ceiling: experiment A's 1.5 m take-off is fine, a 40 m one is not.
+    (tmp_path / "fleet.toml").write_text("[airspace]\nceiling = 10.0\n")
+    text = (paper / "experiment_a.go").read_text().replace("Takeoff(1.5)", "Takeoff(40)")
+    uri = open_doc(client, tmp_path / "a.go", text)
+    assert len(await diagnostics_for(client, uri)) == 0
+    client.text_document_did_save(types.DidSaveTextDocumentParams(text_document=doc(uri)))
+    got = await diagnostics_for(client, uri, lambda d: len(d) > 0)
+    assert all(d.code.startswith("check::") for d in got), codes(got)
+    takeoff = position_of(text, "Takeoff(40)")
+    assert any(d.range.start.line == takeoff.line for d in got), got
