@@ -42,6 +42,14 @@ impl Settings {
     }
 }
 
+/// Why a request failed: the error code and message the client gets.
+type Failure = (ErrorCode, String);
+
+/// An answer as the protocol's JSON.
+fn json(v: impl serde::Serialize) -> Result<Value, Failure> {
+    serde_json::to_value(v).map_err(|e| (ErrorCode::InternalError, e.to_string()))
+}
+
 /// A check's findings for the text of `hash`.
 struct Checked {
     hash: u64,
@@ -180,19 +188,19 @@ impl Server {
                 "the server is shut down".into(),
             );
         }
-        let result: Result<Value, (ErrorCode, String)> = match r.method.as_str() {
+        let result: Result<Value, Failure> = match r.method.as_str() {
             req::Shutdown::METHOD => {
                 self.shut_down = true;
                 Ok(Value::Null)
             }
             req::HoverRequest::METHOD => self.at::<req::HoverRequest>(r, |s, doc, _, off| {
-                serde_json::to_value(hover::hover(doc, &s.profiles, off))
+                json(hover::hover(doc, &s.profiles, off))
             }),
             req::Completion::METHOD => self.at::<req::Completion>(r, |s, doc, _, off| {
-                serde_json::to_value(complete::complete(doc, &s.profiles, off))
+                json(complete::complete(doc, &s.profiles, off))
             }),
             req::GotoDefinition::METHOD => self.at::<req::GotoDefinition>(r, |_, doc, uri, off| {
-                serde_json::to_value(navigate::definition(doc, uri, off))
+                json(navigate::definition(doc, uri, off))
             }),
             req::References::METHOD => {
                 let declaration = r
@@ -201,12 +209,12 @@ impl Server {
                     .and_then(Value::as_bool)
                     .unwrap_or(true);
                 self.at::<req::References>(r, move |_, doc, uri, off| {
-                    serde_json::to_value(navigate::references(doc, uri, off, declaration))
+                    json(navigate::references(doc, uri, off, declaration))
                 })
             }
             req::PrepareRenameRequest::METHOD => self
                 .at::<req::PrepareRenameRequest>(r, |_, doc, _, off| {
-                    serde_json::to_value(navigate::prepare_rename(doc, off))
+                    json(navigate::prepare_rename(doc, off))
                 }),
             req::Rename::METHOD => {
                 let new_name = r
@@ -215,24 +223,15 @@ impl Server {
                     .and_then(Value::as_str)
                     .unwrap_or("")
                     .to_string();
-                let mut failed = None;
-                let result = self.at::<req::Rename>(r, |_, doc, uri, off| {
-                    match navigate::rename(doc, uri, off, &new_name) {
-                        Ok(edit) => serde_json::to_value(edit),
-                        Err(e) => {
-                            failed = Some(e);
-                            Ok(Value::Null)
-                        }
-                    }
-                });
-                match failed {
-                    Some(e) => Err((ErrorCode::InvalidParams, e)),
-                    None => result,
-                }
+                self.at::<req::Rename>(r, |_, doc, uri, off| {
+                    navigate::rename(doc, uri, off, &new_name)
+                        .map_err(|e| (ErrorCode::InvalidParams, e))
+                        .and_then(json)
+                })
             }
             req::DocumentSymbolRequest::METHOD => self
                 .doc_request::<req::DocumentSymbolRequest>(r, |_, doc, _| {
-                    serde_json::to_value(navigate::symbols(doc))
+                    json(navigate::symbols(doc))
                 }),
             req::CodeActionRequest::METHOD => {
                 let diags: Vec<Diagnostic> = r
@@ -241,7 +240,7 @@ impl Server {
                     .and_then(|d| serde_json::from_value(d.clone()).ok())
                     .unwrap_or_default();
                 self.doc_request::<req::CodeActionRequest>(r, move |_, doc, uri| {
-                    serde_json::to_value(fix::quick_fixes(doc, uri, &diags))
+                    json(fix::quick_fixes(doc, uri, &diags))
                 })
             }
             other => Err((
@@ -260,8 +259,8 @@ impl Server {
     fn doc_request<R: lsp_types::request::Request>(
         &mut self,
         r: Request,
-        f: impl FnOnce(&Server, &Doc, &Uri) -> serde_json::Result<Value>,
-    ) -> Result<Value, (ErrorCode, String)> {
+        f: impl FnOnce(&Server, &Doc, &Uri) -> Result<Value, Failure>,
+    ) -> Result<Value, Failure> {
         let params: Value = r.params;
         let uri = params
             .pointer("/textDocument/uri")
@@ -274,15 +273,15 @@ impl Server {
         let Some((u, doc)) = self.docs.get(&uri) else {
             return Ok(Value::Null);
         };
-        f(self, doc, u).map_err(|e| (ErrorCode::InternalError, e.to_string()))
+        f(self, doc, u)
     }
 
     /// A request at a position in a document.
     fn at<R: lsp_types::request::Request>(
         &mut self,
         r: Request,
-        f: impl FnOnce(&Server, &Doc, &Uri, usize) -> serde_json::Result<Value>,
-    ) -> Result<Value, (ErrorCode, String)> {
+        f: impl FnOnce(&Server, &Doc, &Uri, usize) -> Result<Value, Failure>,
+    ) -> Result<Value, Failure> {
         let pos: Position = r
             .params
             .get("position")
