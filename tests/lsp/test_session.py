@@ -242,3 +242,23 @@ async def test_the_fleet_file_beside_the_mission_gives_the_airspace_on_save(
     assert all(d.code.startswith("check::") for d in got), codes(got)
     takeoff = position_of(text, "Takeoff(40)")
     assert any(d.range.start.line == takeoff.line for d in got), got
+
+
+async def test_an_events_hover_names_its_sites_and_rename_keeps_its_quotes(
+    client: LanguageClient, tmp_path
+):
+    uri = open_doc(client, tmp_path / "d.go", DEADLOCK)
+    at = position_of(DEADLOCK, 'Await("a")', 7)
+    hover = await client.text_document_hover_async(types.HoverParams(text_document=doc(uri), position=at))
+    signal_line = position_of(DEADLOCK, 'Signal("a")').line + 1
+    await_line = at.line + 1
+    assert f"`Signal` at line {signal_line}" in hover.contents.value, hover.contents.value
+    assert f"`Await` at line {await_line}" in hover.contents.value, hover.contents.value
+    edit = await client.text_document_rename_async(
+        types.RenameParams(text_document=doc(uri), position=at, new_name="airborne")
+    )
+    edits = edit.changes[uri]
+    assert len(edits) == 2 and all(e.new_text == "airborne" for e in edits)
+    for e in edits:
+        line = DEADLOCK.splitlines()[e.range.start.line]
+        assert line[e.range.start.character - 1] == '"' and line[e.range.end.character] == '"'
