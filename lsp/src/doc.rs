@@ -1,8 +1,9 @@
 //! One open mission file: its text and what the front end made of it.
 //!
 //! The analysis is a pure function of the text, so a document keeps the
-//! hash of the text it analysed and skips the work when an edit leaves the
-//! text as it was (an undo, a save without change).
+//! hash of the text it analysed and skips the work when the text is the
+//! one analysed (a save that sends the text, keystrokes undone before the
+//! front end saw them).
 
 use std::collections::hash_map::DefaultHasher;
 use std::hash::{Hash, Hasher};
@@ -84,5 +85,25 @@ impl Doc {
 
     pub fn offset(&self, pos: Position) -> usize {
         self.lines.offset(self.text(), pos)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_edit_that_leaves_the_text_as_it_was_is_not_analysed_again() {
+        let profiles = eamos_profile::builtin();
+        let text = "package M\nvar D1 Quadcopter\nfunc INIT() { D1.Arm() }\n";
+        let mut doc = Doc::new("m.go", text.to_string(), 1);
+        assert!(doc.analyse(&profiles));
+        doc.set_text(format!("{text}x"), 2);
+        assert!(doc.analyse(&profiles), "a change is analysed");
+        doc.set_text(text.to_string(), 3);
+        assert!(doc.analyse(&profiles), "an undo is a change too");
+        doc.set_text(text.to_string(), 4);
+        assert!(!doc.analyse(&profiles), "the same text again is not");
+        assert_eq!(doc.version, 4);
     }
 }
