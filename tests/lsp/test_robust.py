@@ -126,10 +126,10 @@ def test_files_that_are_not_missions_get_diagnostics_not_a_crash():
     s = Raw()
     s.initialize()
     texts = {
-        "file:///tmp/main.go": 'package main\n\nimport "fmt"\n\nfunc main() { fmt.Println("hi") }\n',
-        "file:///tmp/notes.txt": "\x00\x01 {{{ ((( \"unclosed\n/* and more",
-        "file:///tmp/empty.go": "",
-        "file:///tmp/deep.go": "package M\nfunc INIT() { If(" + "(" * 5000 + "\n",
+        "file:///robust/main.go": 'package main\n\nimport "fmt"\n\nfunc main() { fmt.Println("hi") }\n',
+        "file:///robust/notes.txt": "\x00\x01 {{{ ((( \"unclosed\n/* and more",
+        "file:///robust/empty.go": "",
+        "file:///robust/deep.go": "package M\nfunc INIT() { If(" + "(" * 5000 + "\n",
     }
     for uri, text in texts.items():
         s.open(uri, text)
@@ -145,8 +145,8 @@ def test_files_that_are_not_missions_get_diagnostics_not_a_crash():
 def test_a_client_gone_mid_request_lets_the_server_exit_cleanly():
     s = Raw()
     s.initialize()
-    s.open("file:///tmp/m.go", "package M\nvar D1 Quadcopter\nfunc INIT() { D1.Arm() }\n")
-    s.diagnostics("file:///tmp/m.go")
+    s.open("file:///robust/m.go", "package M\nvar D1 Quadcopter\nfunc INIT() { D1.Arm() }\n")
+    s.diagnostics("file:///robust/m.go")
     body = json.dumps({"jsonrpc": "2.0", "id": 9, "method": "textDocument/hover", "params": {}}).encode()
     s.proc.stdin.write(b"Content-Length: %d\r\n\r\n" % len(body) + body[:20])
     s.proc.stdin.flush()
