@@ -94,7 +94,8 @@ pub fn rename(
     })
 }
 
-/// The outline: drones, constants, and each block with its kind.
+/// The outline: drones, constants, and each block with its kind and,
+/// inside it, what it runs.
 #[allow(deprecated)] // `DocumentSymbol::deprecated` must still be written.
 pub fn symbols(doc: &Doc) -> Vec<DocumentSymbol> {
     let ix = &doc.index;
@@ -118,19 +119,39 @@ pub fn symbols(doc: &Doc) -> Vec<DocumentSymbol> {
         let r = doc.range(*span);
         out.push(symbol(name, "constant".into(), SymbolKind::CONSTANT, r, r));
     }
-    for f in &ix.funcs {
+    for (i, f) in ix.funcs.iter().enumerate() {
         let kind = if f.name.starts_with("PAR_") {
             "PAR"
         } else {
             "SEQ"
         };
-        out.push(symbol(
+        let mut block = symbol(
             &f.name,
             kind.to_string(),
             SymbolKind::FUNCTION,
             doc.range(f.span),
             doc.range(f.name_span),
-        ));
+        );
+        // Inside a block: the blocks it runs, its control structures and
+        // its events, in order.
+        let children: Vec<DocumentSymbol> = ix
+            .occurrences
+            .iter()
+            .filter(|o| o.func == Some(i))
+            .filter_map(|o| {
+                let (name, kind) = match o.kind {
+                    Kind::Block if !o.def => (o.name.clone(), SymbolKind::FUNCTION),
+                    Kind::Control => (o.name.clone(), SymbolKind::OPERATOR),
+                    Kind::Event if o.def => (format!("Signal(\"{}\")", o.name), SymbolKind::EVENT),
+                    Kind::Event => (format!("Await(\"{}\")", o.name), SymbolKind::EVENT),
+                    _ => return None,
+                };
+                let r = doc.range(o.span);
+                Some(symbol(&name, String::new(), kind, r, r))
+            })
+            .collect();
+        block.children = (!children.is_empty()).then_some(children);
+        out.push(block);
     }
     out.sort_by_key(|s| (s.range.start.line, s.range.start.character));
     out
@@ -179,6 +200,20 @@ mod tests {
         let text = edited(&rename(&d, &uri(), at, "SEQ_High").unwrap());
         assert_eq!(text.matches("SEQ_High").count(), 2, "{text}");
         assert!(rename(&d, &uri(), at, "not a name").is_err());
+    }
+
+    #[test]
+    fn the_outline_shows_what_each_block_runs() {
+        let d = doc();
+        let outline = symbols(&d);
+        let seq_a = outline.iter().find(|s| s.name == "SEQ_A").unwrap();
+        let inside: Vec<&str> = seq_a
+            .children
+            .iter()
+            .flatten()
+            .map(|c| c.name.as_str())
+            .collect();
+        assert_eq!(inside, ["Signal(\"up\")", "If", "SEQ_B"]);
     }
 
     #[test]
