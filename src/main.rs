@@ -28,6 +28,7 @@ enum Command {
     SimVehicle(cmd::sim_vehicle::Args),
     Gen(cmd::gen::Args),
     BenchReport(cmd::bench_report::Args),
+    Lsp(cmd::lsp::Args),
 }
 
 fn main() -> ExitCode {
@@ -44,5 +45,6 @@ fn main() -> ExitCode {
         Command::SimVehicle(args) => cmd::sim_vehicle::run(args),
         Command::Gen(args) => cmd::gen::run(args),
         Command::BenchReport(args) => cmd::bench_report::run(args),
+        Command::Lsp(args) => cmd::lsp::run(args),
     }
 }

@@ -16,6 +16,7 @@
 //! to standard output.
 
 mod files;
+mod lsp;
 mod probe;
 mod process;
 mod table;
@@ -69,6 +70,8 @@ pub fn report(options: &Options) -> Result<String, String> {
     eprintln!("checking the stress missions once more, to see how far the proofs go...");
     let check_stress = process::probe(&exe, &["check", path(&facts.stress.mission)?], 1)?;
     let check_without_choices = process::probe(&exe, &["check", path(&facts.without_choices)?], 1)?;
+    eprintln!("timing the language server's diagnostics after an edit...");
+    let lsp = lsp::measure(&exe, &facts.stress.mission)?;
     Ok(table::table(&table::Measured {
         results: &results,
         facts: &facts,
@@ -80,6 +83,7 @@ pub fn report(options: &Options) -> Result<String, String> {
         start_stress,
         check_stress,
         check_without_choices,
+        lsp,
     }))
 }
 

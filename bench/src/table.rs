@@ -32,6 +32,8 @@ mod goal {
     /// The spatial properties may at most double the check.
     pub const SPATIAL_FACTOR: f64 = 2.0;
     pub const BRIDGE_RATIO: f64 = 1.5;
+    /// From an edit to its diagnostics in the editor (issue 16).
+    pub const LSP_EDIT_MS: f64 = 50.0;
 }
 
 /// How far a proof of the `check` probe went.
@@ -100,6 +102,8 @@ pub struct Measured<'a> {
     pub start_stress: Process,
     pub check_stress: Process,
     pub check_without_choices: Process,
+    /// `eamos lsp` on the stress mission.
+    pub lsp: crate::lsp::Latency,
 }
 
 /// One row of the table.
@@ -507,6 +511,23 @@ pub fn table(m: &Measured) -> String {
         .goal(
             format!("≤ {}× bare", goal::BRIDGE_RATIO),
             ratio.map(|x| x <= goal::BRIDGE_RATIO),
+        ),
+    );
+
+    rows.push(
+        row(
+            format!(
+                "`eamos lsp`: from an edit to its diagnostics, {}-node mission, {} drones (median of {} keystrokes)",
+                STRESS.nodes,
+                STRESS.drones,
+                crate::lsp::EDITS
+            ),
+            ms(m.lsp.edit),
+        )
+        .baseline(format!("{} (opening the file)", ms(m.lsp.open)))
+        .goal(
+            format!("≤ {} ms", goal::LSP_EDIT_MS),
+            Some(m.lsp.edit.as_secs_f64() * 1e3 <= goal::LSP_EDIT_MS),
         ),
     );
 

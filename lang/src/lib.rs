@@ -76,6 +76,22 @@ pub struct Compiled {
 /// On failure, every diagnostic found (errors and warnings, in source order)
 /// is returned: syntax errors do not stop the checks of what could be read.
 pub fn compile(file: &SourceFile, profiles: &ProfileTable) -> Result<Compiled, Vec<Diagnostic>> {
+    analyse(file, profiles).result
+}
+
+/// A mission compiled, with the syntax tree it was read into: what an
+/// editor needs beside the diagnostics (where each name is, what is called
+/// where), from one parse.
+#[derive(Debug, Clone)]
+pub struct Analysis {
+    /// The syntax tree, with `Error` nodes where the parser skipped text.
+    pub ast: ast::File,
+    /// What [`compile`] returns for the same file.
+    pub result: Result<Compiled, Vec<Diagnostic>>,
+}
+
+/// [`compile`], keeping the syntax tree.
+pub fn analyse(file: &SourceFile, profiles: &ProfileTable) -> Analysis {
     let (ast, mut diags) = parser::parse(file);
     // Syntax errors and runaway strings or comments may hide declarations;
     // other lexical errors (a stray character, a bad number) do not.
@@ -95,11 +111,12 @@ pub fn compile(file: &SourceFile, profiles: &ProfileTable) -> Result<Compiled, V
         diags.retain(|d| d.is_error() || !check::WHOLE_MISSION_WARNINGS.contains(&d.code));
     }
     diags.sort_by_key(|d| (d.span.start, d.span.end));
-    match mission {
+    let result = match mission {
         Some(mission) if !diags.iter().any(Diagnostic::is_error) => Ok(Compiled {
             mission,
             warnings: diags,
         }),
         _ => Err(diags),
-    }
+    };
+    Analysis { ast, result }
 }

@@ -9,6 +9,7 @@ pub mod check;
 pub mod deploy;
 pub mod gen;
 pub mod keygen;
+pub mod lsp;
 pub mod mission;
 pub mod plan;
 pub mod router;
