@@ -32,6 +32,9 @@ pub struct PlannedLeg {
     pub drone: usize,
     /// The action as the mission writes it: `Drone1.FlyByX(1)`.
     pub action: String,
+    /// The action instance in the net (`ActionRef::instance`): ties the
+    /// leg to the action's transitions.
+    pub instance: u32,
     /// In the fleet frame (metres north, east of the origin; up from home).
     pub from: Vec3,
     pub to: Vec3,
@@ -67,6 +70,7 @@ pub fn plan(net: &Net, profiles: &ProfileTable, space: &Space) -> Result<Plan, S
             legs.push(PlannedLeg {
                 drone: t.drone as usize,
                 action: names.action(&t.action),
+                instance: t.action.instance,
                 from,
                 to,
                 boxed: matches!(sweep, Shape::Box(..)),
