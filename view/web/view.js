@@ -366,7 +366,10 @@ var EamosView = (function () {
     root.innerHTML = "";
     var head = html("header", {}, root);
     html("h1", {}, head, model.name);
-    html("p", { "class": "file" }, head, model.file + ": " + model.drones.length +
+    // The file's name alone: a report is often shared away from the disk
+    // it was made on.
+    var file = model.file.split(/[\\/]/).pop();
+    html("p", { "class": "file", title: model.file }, head, file + ": " + model.drones.length +
       " drones, " + model.legs.length + " legs, nominal length " + fmt(model.timeline.length) + " s");
     legend(head, model);
     findingsList(head, model);
