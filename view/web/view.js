@@ -125,6 +125,7 @@ var EamosView = (function () {
     var where = origin
       ? "origin " + origin.lat.toFixed(6) + ", " + origin.lon.toFixed(6)
       : "fleet frame";
+    svg("rect", { x: 0, y: 0, width: W, height: 22, "class": "caption-bg" }, root);
     svg("text", { x: 8, y: 16, "class": "caption" }, root,
       "N ↑  E →  grid " + fmt(step) + " m, " + where);
   }
@@ -147,7 +148,9 @@ var EamosView = (function () {
       }, link);
       svg("circle", { "class": cls + "-end", cx: b[0], cy: b[1], r: 2.5, fill: d.colour }, link);
     }
-    svg("title", {}, e, (l.action || d.name) + (l.line ? " (line " + l.line + ")" : ""));
+    var round = l.rounds && l.rounds.length
+      ? ", round " + l.rounds.map(function (r) { return r + 1; }).join(".") : "";
+    svg("title", {}, e, (l.action || d.name) + (l.line ? " (line " + l.line + round + ")" : ""));
     return e;
   }
 
@@ -216,6 +219,7 @@ var EamosView = (function () {
       svg("rect", { "class": "home", "data-drone": i, x: p[0] - 4, y: p[1] - 4, width: 8, height: 8, fill: d.colour }, root);
     });
     drawFindings(root, model, at);
+    svg("rect", { x: 0, y: 0, width: W, height: 22, "class": "caption-bg" }, root);
     svg("text", { x: 8, y: 16, "class": "caption" }, root, "seen from the south: E →, height ↑");
     svg("g", { "class": "live" }, root);
     return { svg: root, at: at };
