@@ -157,3 +157,38 @@ fn the_page_embeds_everything_and_no_mission_text_can_close_its_script() {
         assert!(!html.contains(fetch), "{fetch}");
     }
 }
+
+#[test]
+fn a_mission_too_large_to_follow_says_so_instead_of_drawing_legs() {
+    let m = build(
+        r#"package Long
+
+var A Quadcopter
+
+func SEQ_Long() {
+	A.Arm()
+	A.Takeoff(2)
+	RepeatFor(5000, SEQ_Hop)
+	A.Land()
+}
+
+func SEQ_Hop() {
+	A.FlyByX(1)
+	A.FlyByX(-1)
+}
+"#,
+    );
+    assert!(m.legs.is_empty());
+    assert!(
+        m.plan_error
+            .as_deref()
+            .is_some_and(|e| e.contains("too large")),
+        "{:?}",
+        m.plan_error
+    );
+    // The timeline and the graph do not need the legs.
+    assert_eq!(m.timeline.lanes.len(), 1);
+    assert!(!m.timeline.lanes[0].bars.is_empty());
+    assert!(!m.graph.nodes.is_empty());
+    assert!(page(&m).contains("too large"));
+}
