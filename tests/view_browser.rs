@@ -99,16 +99,23 @@ fn experiment_c_shows_three_drones_legs_three_lanes_and_the_graph() {
     let lines = b.count("#source .src-line");
     assert_eq!(lines, 66);
     // Following a node's link marks its line in the source.
-    let selector = "#graph .node.transition[data-line=\"12\"]";
+    let selector = "#graph .node.transition[data-line=\"11\"]";
     assert!(b.count(selector) >= 1);
     b.click(selector);
-    assert_eq!(b.eval("return location.hash;"), "#L12");
+    assert_eq!(b.eval("return location.hash;"), "#L11");
     assert_eq!(
         b.eval("return document.querySelector('#source .src-line.here').id;"),
-        "L12"
+        "L11"
     );
-
+    // ... and what line 11 made: Drone3's take-off, its leg and its bar.
+    assert!(b.count("#graph .node.here") >= 2);
+    assert_eq!(b.count("#plan .legs .leg.here"), 1);
+    assert_eq!(b.count("#timeline .bar.here"), 1);
+    b.eval("document.getElementById('source').parentNode.scrollTop = 0;");
     screenshot(&b, Some("#graph-view"), "view-experiment-c-graph.png");
+    // A line's number leads the other way, to what it made.
+    b.click("#L13 .line-no");
+    assert_eq!(b.count("#plan .legs .leg.here[data-drone=\"2\"]"), 1);
 
     // A monitor's live position moves a marker without drawing again.
     b.eval("window.eamosView.update({kind: 'position', drone: 'Drone2', at: [1, 4, 1.5]});");

@@ -137,13 +137,13 @@ var EamosView = (function () {
     var e;
     if (l.boxed) {
       e = svg("rect", {
-        "class": cls + " boxed", "data-drone": l.drone, stroke: d.colour, fill: d.colour,
+        "class": cls + " boxed", "data-drone": l.drone, "data-line": l.line, stroke: d.colour, fill: d.colour,
         x: Math.min(a[0], b[0]), y: Math.min(a[1], b[1]),
         width: Math.abs(b[0] - a[0]), height: Math.abs(b[1] - a[1])
       }, link);
     } else {
       e = svg("line", {
-        "class": cls, "data-drone": l.drone, stroke: d.colour,
+        "class": cls, "data-drone": l.drone, "data-line": l.line, stroke: d.colour,
         x1: a[0], y1: a[1], x2: b[0], y2: b[1]
       }, link);
       svg("circle", { "class": cls + "-end", cx: b[0], cy: b[1], r: 2.5, fill: d.colour }, link);
@@ -250,7 +250,7 @@ var EamosView = (function () {
       lane.bars.forEach(function (bar) {
         var link = svg("a", { href: lineLink(bar.line) }, g);
         var r = svg("rect", {
-          "class": "bar", x: x(bar.start), y: y(i) + 6,
+          "class": "bar", "data-line": bar.line, x: x(bar.start), y: y(i) + 6,
           width: Math.max(x(bar.end) - x(bar.start), 2), height: LANE - 12, fill: d.colour
         }, link);
         svg("title", {}, r, bar.action + ": " + fmt(bar.start) + " s to " + fmt(bar.end) + " s (line " + bar.line + ")");
@@ -326,7 +326,7 @@ var EamosView = (function () {
     var pre = html("pre", { id: "source" }, parent);
     model.source.forEach(function (text, i) {
       var line = html("span", { id: "L" + (i + 1), "class": "src-line" }, pre);
-      html("span", { "class": "line-no" }, line, String(i + 1));
+      html("a", { "class": "line-no", href: "#L" + (i + 1) }, line, String(i + 1));
       line.appendChild(document.createTextNode(text + "\n"));
     });
     return pre;
@@ -353,14 +353,18 @@ var EamosView = (function () {
     });
   }
 
-  // Following a link to a line marks it in the source.
+  // Following a link to a line (from a node, a leg, a bar or the line's
+  // own number) marks the line in the source and everything drawn from it.
   function followLines(view) {
     function mark() {
-      var old = document.querySelectorAll(".src-line.here");
+      var old = document.querySelectorAll(".here");
       for (var i = 0; i < old.length; i++) old[i].classList.remove("here");
       var id = location.hash.slice(1);
       var line = id && document.getElementById(id);
-      if (line && line.classList.contains("src-line")) line.classList.add("here");
+      if (!line || !line.classList.contains("src-line")) return;
+      line.classList.add("here");
+      var drawn = document.querySelectorAll('[data-line="' + id.slice(1) + '"]');
+      for (var j = 0; j < drawn.length; j++) drawn[j].classList.add("here");
     }
     window.addEventListener("hashchange", mark);
     mark();
