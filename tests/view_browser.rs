@@ -117,10 +117,19 @@ fn experiment_c_shows_three_drones_legs_three_lanes_and_the_graph() {
     b.click("#L13 .line-no");
     assert_eq!(b.count("#plan .legs .leg.here[data-drone=\"2\"]"), 1);
 
-    // A monitor's live position moves a marker without drawing again.
-    b.eval("window.eamosView.update({kind: 'position', drone: 'Drone2', at: [1, 4, 1.5]});");
+    // The executor's events, as its log writes them, move a drone's marker
+    // and mark the places its peer holds, without drawing again.
+    b.eval(
+        r#"var v = window.eamosView;
+        v.update({time: 1, drone: "Drone2", event: "telemetry",
+                  position: {x: 1, y: 1, z: 1.5}, altitude: 1.5, battery: 90});
+        v.update({time: 1, drone: "Drone2", event: "marking",
+                  marked: v.model.graph.nodes.filter(n => n.shape === "place" && n.drone === 1)
+                          .slice(0, 2).map(n => n.id)});"#,
+    );
     assert_eq!(b.count("#plan .live-drone[data-drone=\"1\"]"), 1);
     assert_eq!(b.count("#side .live-drone[data-drone=\"1\"]"), 1);
+    assert_eq!(b.count("#graph .node.place.marked[data-drone=\"1\"]"), 2);
     assert_eq!(b.count("#plan .legs .leg"), 18);
 }
 

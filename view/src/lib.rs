@@ -7,8 +7,10 @@
 //! The Rust side builds a [`Model`], plain data in mission terms, from what
 //! the other crates computed: the checked mission's text, the net, the
 //! checker's report and `eamos_verify::plan`'s legs. It draws nothing; the
-//! page's script (`web/view.js`) draws the model, and a later monitor can
-//! hand the same script live events (`update(event)`) without a new model.
+//! page's script (`web/view.js`) draws the model (`render`), and a later
+//! monitor can hand the same script the executor's own events
+//! (`update(event)`, `telemetry` and `marking` as the mission log writes
+//! them) without a new model or a vocabulary of its own.
 //!
 //! Architecture Invariant: data flows one way. This crate reads `lang`,
 //! `petri`, `profile`, `verify` and `geo`, and nothing depends on it but the

@@ -1,12 +1,15 @@
 // The mission report page: draws the model `eamos view` embeds.
 //
 // `EamosView.render(root, model)` draws everything once, from the model
-// alone, and returns a view whose `update(event)` changes what is live
-// without drawing the rest again: a drone's position (`{kind: "position",
-// drone, at: [north, east, up]}`) moves its marker in the plan and side
-// views, a marking (`{kind: "marking", places: [ids]}`) marks the graph's
-// places. The static report never calls `update`; a monitor feeding the
-// page with a run's events will.
+// alone, and returns a view whose `update(event)` changes only what is
+// live. An event is one of the executor's mission events, as its JSON-lines
+// log writes them (`eamos_exec::event::Event`, one vocabulary for every
+// consumer): `{"drone": "D1", "event": "telemetry", "position": {"x", "y",
+// "z"}}` (metres from the drone's home) moves the drone's marker in the
+// plan and side views; `{"drone": "D1", "event": "marking", "marked":
+// [place ids]}` marks the places the drone holds in the graph. Other events
+// are ignored. The static report never calls `update`; a monitor feeding
+// the page with a run's events will.
 //
 // Plain SVG drawn by hand for the plan, side and timeline views; the
 // mission graph is laid out by dagre (inlined before this script).
@@ -403,21 +406,26 @@ var EamosView = (function () {
   // Live changes, for a monitor: see the top of this file.
   function update(view, event) {
     var model = view.model;
-    if (event.kind === "position") {
-      var i = typeof event.drone === "number" ? event.drone
-        : model.drones.findIndex(function (d) { return d.name === event.drone; });
-      if (i < 0 || !model.drones[i]) return;
+    var i = model.drones.findIndex(function (d) { return d.name === event.drone; });
+    if (event.event === "telemetry" && i >= 0 && event.position) {
+      var home = model.drones[i].home, p = event.position;
+      var at = [home[0] + p.x, home[1] + p.y, p.z];
       [view.plan, view.side].forEach(function (v) {
         var live = v.svg.querySelector("g.live");
         var dot = live.querySelector('[data-drone="' + i + '"]');
         if (!dot) dot = svg("circle", { "class": "live-drone", "data-drone": i, r: 6, fill: model.drones[i].colour }, live);
-        var p = v.at(event.at);
-        dot.setAttribute("cx", p[0]);
-        dot.setAttribute("cy", p[1]);
+        var q = v.at(at);
+        dot.setAttribute("cx", q[0]);
+        dot.setAttribute("cy", q[1]);
       });
-    } else if (event.kind === "marking") {
+    } else if (event.event === "marking") {
+      // Each peer says what it holds; the net's marking is all of them.
+      view.marking = view.marking || {};
+      view.marking[event.drone] = event.marked || [];
       var marked = {};
-      event.places.forEach(function (id) { marked[id] = true; });
+      for (var peer in view.marking) {
+        view.marking[peer].forEach(function (id) { marked[id] = true; });
+      }
       for (var id in view.graph.nodes) {
         view.graph.nodes[id].classList.toggle("marked", !!marked[id]);
       }
