@@ -102,6 +102,7 @@ fn experiment_c_shows_three_drones_legs_three_lanes_and_the_graph() {
     let selector = "#graph .node.transition[data-line=\"11\"]";
     assert!(b.count(selector) >= 1);
     b.click(selector);
+    b.wait_for("return document.querySelector('#source .src-line.here') !== null;");
     assert_eq!(b.eval("return location.hash;"), "#L11");
     assert_eq!(
         b.eval("return document.querySelector('#source .src-line.here').id;"),
@@ -115,6 +116,7 @@ fn experiment_c_shows_three_drones_legs_three_lanes_and_the_graph() {
     screenshot(&b, Some("#graph-view"), "view-experiment-c-graph.png");
     // A line's number leads the other way, to what it made.
     b.click("#L13 .line-no");
+    b.wait_for("return document.querySelector('#L13.here') !== null;");
     assert_eq!(b.count("#plan .legs .leg.here[data-drone=\"2\"]"), 1);
 
     // The executor's events, as its log writes them, move a drone's marker

@@ -122,6 +122,20 @@ impl Browser {
         )
     }
 
+    /// Waits (up to five seconds) until `script` returns true: what a
+    /// page does on an event (a followed link's `hashchange`) comes after
+    /// the click that caused it has returned.
+    pub fn wait_for(&self, script: &str) {
+        let started = Instant::now();
+        while self.eval(script) != Value::Bool(true) {
+            assert!(
+                started.elapsed() < Duration::from_secs(5),
+                "still not true after 5 s: {script}"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// The number of elements `selector` finds.
     pub fn count(&self, selector: &str) -> u64 {
         let script = format!(
