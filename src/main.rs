@@ -19,6 +19,7 @@ struct Cli {
 enum Command {
     Build(cmd::build::Args),
     Check(cmd::check::Args),
+    View(cmd::view::Args),
     Run(cmd::run::Args),
     Abort(cmd::abort::Args),
     Agent(cmd::agent::Args),
@@ -36,6 +37,7 @@ fn main() -> ExitCode {
     match cli.command {
         Command::Build(args) => cmd::build::run(args),
         Command::Check(args) => cmd::check::run(args),
+        Command::View(args) => cmd::view::run(args),
         Command::Run(args) => cmd::run::run(args),
         Command::Abort(args) => cmd::abort::run(args),
         Command::Agent(args) => cmd::agent::run(args),

@@ -15,3 +15,4 @@ pub mod plan;
 pub mod router;
 pub mod run;
 pub mod sim_vehicle;
+pub mod view;

@@ -26,6 +26,7 @@ pub mod conditions;
 mod explore;
 mod mission;
 mod names;
+pub mod plan;
 pub mod pnml;
 mod ptnet;
 pub mod report;
@@ -33,6 +34,7 @@ mod space;
 mod structural;
 
 pub use check::Options;
+pub use plan::{plan, Plan, PlannedLeg};
 pub use pnml::{PnmlError, PnmlNet};
 pub use report::{
     Finding, FindingKind, GeoLeg, Geometry, InputKind, Label, Limit, Property, PropertyResult,
