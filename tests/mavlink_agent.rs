@@ -176,14 +176,7 @@ fn a_lost_link_is_reported_in_time_by_the_agent_and_the_drone_taken_back_when_it
         "a 2 s link timeout reported after {reported_after:?}"
     );
     // The crew at the drone reads it, and what the mission does about it.
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while !rollout
-        .agent_said()
-        .contains("Copter: warning: the link is lost")
-    {
-        assert!(Instant::now() < deadline, "{}", rollout.agent_said());
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    rollout.wait_said("Copter: warning: the link is lost", Duration::from_secs(30));
     // Meanwhile nobody commands it: it hovers in GUIDED.
     std::thread::sleep(Duration::from_secs(2));
     assert_eq!(copter.mode(), Some(CopterMode::Guided));
@@ -221,14 +214,10 @@ fn a_pilot_who_takes_over_from_an_agent_keeps_the_drone_until_giving_it_back() {
         r["event"] == "action_finished" && r["instance"] == leg["instance"]
     });
     assert!(failed.to_string().contains("switched to BRAKE"), "{failed}");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    while !rollout
-        .agent_said()
-        .contains("Copter: warning: the drone is in BRAKE")
-    {
-        assert!(Instant::now() < deadline, "{}", rollout.agent_said());
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    rollout.wait_said(
+        "Copter: warning: the drone is in BRAKE",
+        Duration::from_secs(30),
+    );
 
     // The mission is over, but the drone stays the pilot's.
     let mark = copter.snapshot().time;

@@ -159,18 +159,26 @@ fn a_mission_flies_through_two_routers_and_on_through_one_when_the_other_is_kill
     );
 }
 
+/// `eamos router --fleet FLEET ARGS...`, which must refuse with exit
+/// status 2: what it said.
+fn refused(fleet: &Path, args: &[&str]) -> String {
+    let out = eamos()
+        .args(["router", "--fleet"])
+        .arg(fleet)
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    err
+}
+
 #[test]
 fn a_router_the_fleet_does_not_name_or_whose_port_is_taken_is_bad_input() {
     let dir = tempfile::tempdir().unwrap();
     let fleet = dir.path().join("fleet.toml");
     std::fs::write(&fleet, "[drones.D1]\n").unwrap();
-    let out = eamos()
-        .args(["router", "--fleet"])
-        .arg(&fleet)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = refused(&fleet, &[]);
     assert!(err.contains("names no routers"), "{err}");
 
     let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
@@ -180,22 +188,9 @@ fn a_router_the_fleet_does_not_name_or_whose_port_is_taken_is_bad_input() {
         format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{port}\"]\n"),
     )
     .unwrap();
-    let out = eamos()
-        .args(["router", "--fleet"])
-        .arg(&fleet)
-        .args(["--router", "2"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = refused(&fleet, &["--router", "2"]);
     assert!(err.contains("router 2 does not exist"), "{err}");
-    let out = eamos()
-        .args(["router", "--fleet"])
-        .arg(&fleet)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = refused(&fleet, &[]);
     assert!(
         err.contains(&format!(
             "router 1 cannot listen on tcp/127.0.0.1:{port}: the port is taken by another program"

@@ -144,6 +144,19 @@ impl Rollout {
         }
     }
 
+    /// Waits until the agent has printed a line containing `needle`.
+    pub fn wait_said(&self, needle: &str, limit: Duration) {
+        let deadline = Instant::now() + limit;
+        while !self.agent_said().contains(needle) {
+            assert!(
+                Instant::now() < deadline,
+                "the agent never said `{needle}` within {limit:?}:\n{}",
+                self.agent_said()
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
     /// Waits for the agent to end (`--once`).
     pub fn agent_ends(&mut self, limit: Duration) {
         let deadline = Instant::now() + limit;
