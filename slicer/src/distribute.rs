@@ -220,16 +220,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     (ColourOp::Keep, max_input_depth(work, *transition))
                 };
                 let inbox = graph.add_node(Node::Place(Place {
-                    id: format!("{}.out.{}.p", t.id, name(*to)),
-                    label: format!("from {}", t.label),
+                    id: format!("{}.out.{}.p", t.id, name(*to)).into(),
+                    label: format!("from {}", t.label).into(),
                     kind: PlaceKind::Control,
                     owner: *to,
                     span: Some(t.span),
                     depth,
                 }));
                 let proxy = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.out.{}", t.id, name(*to)),
-                    label: format!("fan-out of {}", t.label),
+                    id: format!("{}.out.{}", t.id, name(*to)).into(),
+                    label: format!("fan-out of {}", t.label).into(),
                     kind: TransitionKind::Fork,
                     owner: *to,
                     span: t.span,
@@ -255,8 +255,8 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     }
                 }
                 let pre = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.in.{}", j.id, name(*from)),
-                    label: format!("join on {} before {}", name(*from), j.label),
+                    id: format!("{}.in.{}", j.id, name(*from)).into(),
+                    label: format!("join on {} before {}", name(*from), j.label).into(),
                     kind: TransitionKind::Join,
                     owner: *from,
                     span: j.span,
@@ -264,8 +264,8 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     delay: None,
                 }));
                 let inbox = graph.add_node(Node::Place(Place {
-                    id: format!("{}.in.{}.p", j.id, name(*from)),
-                    label: format!("joined on {}", name(*from)),
+                    id: format!("{}.in.{}.p", j.id, name(*from)).into(),
+                    label: format!("joined on {}", name(*from)).into(),
                     kind: PlaceKind::Control,
                     owner: owner[join.index()],
                     span: Some(j.span),
@@ -282,16 +282,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                 let first = net.graph.edge_endpoints(arcs[0]).expect("edge").0;
                 let span = net.transition(first).map(|t| t.span).unwrap_or_default();
                 let local = graph.add_node(Node::Place(Place {
-                    id: format!("{}.fwd.{}.p", p.id, name(*from)),
-                    label: format!("{} on {}", p.label, name(*from)),
+                    id: format!("{}.fwd.{}.p", p.id, name(*from)).into(),
+                    label: format!("{} on {}", p.label, name(*from)).into(),
                     kind: PlaceKind::Control,
                     owner: *from,
                     span: p.span,
                     depth: p.depth,
                 }));
                 let fwd = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.fwd.{}", p.id, name(*from)),
-                    label: format!("forward to {}", p.label),
+                    id: format!("{}.fwd.{}", p.id, name(*from)).into(),
+                    label: format!("forward to {}", p.label).into(),
                     kind: TransitionKind::Silent,
                     owner: *from,
                     span,
@@ -331,16 +331,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
         for (o, inputs) in by_owner {
             let who = name(o);
             let place = graph.add_node(Node::Place(Place {
-                id: format!("final.{who}"),
-                label: format!("end of the mission on {who}"),
+                id: format!("final.{who}").into(),
+                label: format!("end of the mission on {who}").into(),
                 kind: PlaceKind::Final,
                 owner: o,
                 span: Some(span),
                 depth: 0,
             }));
             let t = graph.add_node(Node::Transition(Transition {
-                id: format!("end.{who}"),
-                label: format!("{} on {who}", finish.label),
+                id: format!("end.{who}").into(),
+                label: format!("{} on {who}", finish.label).into(),
                 kind: TransitionKind::Finish,
                 owner: o,
                 span,
