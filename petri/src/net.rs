@@ -293,15 +293,27 @@ impl ColourOp {
 
 pub type NodeId = NodeIndex<u32>;
 
-/// The id of the `index`th node, `p17` or `t42`, formatted on the stack:
-/// the [`Name`] is then the node's only allocation for it.
+/// The id of the `index`th node, `p17` or `t42`, written on the stack
+/// digit by digit: the [`Name`] is then the node's only allocation for it,
+/// and the formatting machinery (some 300 instructions an id, one id per
+/// node) is not needed for a prefix and a number.
 fn indexed_id(prefix: char, index: usize) -> Name {
-    use std::io::Write as _;
-    let mut buf = [0u8; 24];
-    let mut out = &mut buf[..];
-    write!(out, "{prefix}{index}").expect("an index fits in 24 bytes");
-    let len = 24 - out.len();
-    Name::from(std::str::from_utf8(&buf[..len]).expect("ASCII"))
+    let mut buf = [0u8; 32];
+    let mut at = buf.len();
+    let mut n = index;
+    loop {
+        at -= 1;
+        buf[at] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    let mut utf8 = [0u8; 4];
+    let prefix = prefix.encode_utf8(&mut utf8).as_bytes();
+    at -= prefix.len();
+    buf[at..at + prefix.len()].copy_from_slice(prefix);
+    Name::from(std::str::from_utf8(&buf[at..]).expect("a char and ASCII digits"))
 }
 
 /// A place that the owners of its consumers pull onto several drones.
@@ -558,6 +570,13 @@ impl Net {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn indexed_ids_are_the_prefix_and_the_index() {
+        assert_eq!(indexed_id('p', 0), "p0");
+        assert_eq!(indexed_id('t', 42), "t42");
+        assert_eq!(indexed_id('p', usize::MAX), format!("p{}", usize::MAX));
+    }
 
     #[test]
     fn colour_functions_count_loop_iterations() {
