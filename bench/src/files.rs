@@ -40,6 +40,7 @@ pub fn prepare(dir: &Path) -> Result<Facts, String> {
             .map_err(|e| format!("cannot write {}: {e}", mission.display()))?;
         let source = SourceFile::new(mission.display().to_string(), text);
         let compiled = workload::compile(&source, &profiles)?;
+        let meg_nodes = eamos_gen::meg::nodes(&workload::front_end(&source, &profiles)?);
         let largest = workload::largest_drone_slice(&compiled.slices);
         let bytes = largest.to_bytes();
         let slice = files.join(format!(
@@ -57,7 +58,7 @@ pub fn prepare(dir: &Path) -> Result<Facts, String> {
             places: largest.places.len(),
             transitions: largest.transitions.len(),
             bytes: bytes.len(),
-            meg_nodes: eamos_gen::meg::nodes(&compiled.mission),
+            meg_nodes,
         })
     };
     let without_choices = files.join(STRESS_WITHOUT_CHOICES.file_name());

@@ -401,7 +401,7 @@ impl Executor {
         }
     }
 
-    fn action_ref(&self, instance: u32) -> Option<eamos_petri::net::ActionRef> {
+    fn action_ref(&self, instance: u32) -> Option<eamos_petri::net::SharedAction> {
         self.slice
             .transitions
             .iter()
@@ -511,7 +511,7 @@ impl Executor {
             .iter()
             .zip(&self.slice.places)
             .filter(|(tokens, _)| !tokens.is_empty())
-            .map(|(_, p)| p.id.clone())
+            .map(|(_, p)| p.id.to_string())
             .collect();
         marked.sort();
         self.emit(Kind::Marking { marked });
@@ -708,7 +708,7 @@ impl Executor {
                     // Journaled as it begins, so that a restart waits only
                     // for what is left of it.
                     let paused = Record::Paused(journal::Paused {
-                        transition: self.slice.transitions[t as usize].transition.id.clone(),
+                        transition: self.slice.transitions[t as usize].transition.id.to_string(),
                         colour: colour.clone(),
                         time: now,
                         wall_ms: journal::Paused::wall_now_ms(),
@@ -741,7 +741,7 @@ impl Executor {
             let st = &self.slice.transitions[t as usize];
             let condition = self.guard_text(g);
             self.emit(Kind::ConditionWaiting {
-                transition: st.transition.id.clone(),
+                transition: st.transition.id.to_string(),
                 condition: condition.clone(),
                 reason,
             });
@@ -818,7 +818,7 @@ impl Executor {
         }
         self.enabled_since.remove(&(t, colour.clone()));
         let fired = Record::Fired {
-            transition: st.transition.id.clone(),
+            transition: st.transition.id.to_string(),
             colour: colour.clone(),
         };
         if !self.journal(fired, false) {
@@ -828,8 +828,8 @@ impl Executor {
             self.first_firing = Some(self.now());
         }
         self.emit(Kind::Fired {
-            transition: st.transition.id.clone(),
-            label: st.transition.label.clone(),
+            transition: st.transition.id.to_string(),
+            label: st.transition.label.to_string(),
             kind: kind_name(&st.transition.kind).to_string(),
             colour: colour.clone(),
         });
@@ -863,7 +863,7 @@ impl Executor {
                     token.cancel();
                     self.actions_cancelled += 1;
                     self.emit(Kind::ActionCancelled {
-                        action: a.name.clone(),
+                        action: a.name.to_string(),
                         instance: a.instance,
                         colour,
                     });
@@ -919,7 +919,7 @@ impl Executor {
             return;
         }
         self.emit(Kind::ActionStarted {
-            action: a.name.clone(),
+            action: a.name.to_string(),
             args: a.args.clone(),
             instance: a.instance,
             colour: colour.clone(),

@@ -206,7 +206,7 @@ fn conflicts(net: &Net, profiles: &ProfileTable, m: &Marking) -> Vec<(NodeId, No
     let running: Vec<(NodeId, &eamos_petri::net::ActionRef)> = m
         .places()
         .filter_map(|p| match &net.place(p)?.kind {
-            PlaceKind::Running(a) => Some((p, a)),
+            PlaceKind::Running(a) => Some((p, &**a)),
             _ => None,
         })
         .collect();

@@ -137,7 +137,7 @@ fn two_motions_of_one_drone_at_once_conflict_a_hover_and_a_photo_do_not() {
     let (a, b) = *v.conflicts.iter().next().expect("one");
     let names: Vec<String> = [a, b]
         .iter()
-        .map(|&p| n.place(p).expect("a place").label.clone())
+        .map(|&p| n.place(p).expect("a place").label.to_string())
         .collect();
     assert!(names.iter().all(|l| l.contains("D1.FlyBy")), "{names:?}");
 }

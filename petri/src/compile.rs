@@ -139,7 +139,8 @@ use eamos_lang::Span;
 use eamos_profile::ProfileTable;
 
 use crate::net::{
-    ActionRef, ColourOp, Guard, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Guard, Name, Net, NodeId, Owner, Place, PlaceKind, SharedAction,
+    Transition, TransitionKind,
 };
 use crate::pretty;
 
@@ -259,10 +260,16 @@ impl Compiler<'_> {
 
     // ---- building blocks -------------------------------------------------
 
-    fn place_at(&mut self, label: String, kind: PlaceKind, span: Span, depth: u8) -> NodeId {
+    fn place_at(
+        &mut self,
+        label: impl Into<Name>,
+        kind: PlaceKind,
+        span: Span,
+        depth: u8,
+    ) -> NodeId {
         self.net.add_place(Place {
-            id: String::new(),
-            label,
+            id: self.net.next_id('p'),
+            label: label.into(),
             kind,
             owner: Owner::Unassigned,
             span: Some(span),
@@ -270,21 +277,21 @@ impl Compiler<'_> {
         })
     }
 
-    fn control(&mut self, label: String, span: Span) -> NodeId {
+    fn control(&mut self, label: impl Into<Name>, span: Span) -> NodeId {
         self.place_at(label, PlaceKind::Control, span, self.depth)
     }
 
     fn transition(
         &mut self,
-        label: String,
+        label: impl Into<Name>,
         kind: TransitionKind,
         owner: Owner,
         span: Span,
         guard: Option<Guard>,
     ) -> NodeId {
         self.net.add_transition(Transition {
-            id: String::new(),
-            label,
+            id: self.net.next_id('t'),
+            label: label.into(),
             kind,
             owner,
             span,
@@ -425,14 +432,14 @@ impl Compiler<'_> {
 
     fn action(&mut self, a: &hir::Action, entry: NodeId) -> NodeId {
         let owner = Owner::Drone(a.drone);
-        let action = ActionRef {
+        let action = SharedAction::new(ActionRef {
             drone: a.drone,
-            name: a.name.clone(),
+            name: Name::from(&a.name),
             args: a.args.clone(),
             instance: self.next_action,
-        };
+        });
         self.next_action += 1;
-        let label = self.action_label(a);
+        let label = Name::from(self.action_label(a));
         let start = self.transition(
             label.clone(),
             TransitionKind::ActionStart(action.clone()),

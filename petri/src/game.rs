@@ -258,8 +258,8 @@ pub fn fire(net: &Net, marking: &Marking, t: NodeId) -> Result<Marking, FireErro
 pub fn fire_in_place(net: &Net, marking: &mut Marking, t: NodeId) -> Result<Colour, FireError> {
     let tr = net.transition(t).ok_or(FireError::NotATransition(t))?;
     let id = |n: NodeId| match &net.graph[n] {
-        crate::Node::Place(p) => p.id.clone(),
-        crate::Node::Transition(t) => t.id.clone(),
+        crate::Node::Place(p) => p.id.to_string(),
+        crate::Node::Transition(t) => t.id.to_string(),
     };
     let colour = match token_enabled(net, marking, t) {
         Some(c) => c,
@@ -270,14 +270,14 @@ pub fn fire_in_place(net: &Net, marking: &mut Marking, t: NodeId) -> Result<Colo
                 })
                 .map_or_else(String::new, |(p, _, _)| id(p));
             return Err(FireError::NotEnabled {
-                transition: tr.id.clone(),
+                transition: tr.id.to_string(),
                 place: missing,
             });
         }
     };
     if let Some(false) = tr.guard.as_ref().and_then(|g| g.holds_on_colour(&colour)) {
         return Err(FireError::ColourGuard {
-            transition: tr.id.clone(),
+            transition: tr.id.to_string(),
         });
     }
     let mut next = marking.clone();
@@ -289,7 +289,7 @@ pub fn fire_in_place(net: &Net, marking: &mut Marking, t: NodeId) -> Result<Colo
         let depth = net.place(p).map_or(0, |pl| pl.depth);
         if c.len() != depth as usize {
             return Err(FireError::ColourDepth {
-                transition: tr.id.clone(),
+                transition: tr.id.to_string(),
                 place: id(p),
                 colour: c,
                 depth,
@@ -297,7 +297,7 @@ pub fn fire_in_place(net: &Net, marking: &mut Marking, t: NodeId) -> Result<Colo
         }
         if next.put(p, Arc::from(c)).is_err() {
             return Err(FireError::Unsafe {
-                transition: tr.id.clone(),
+                transition: tr.id.to_string(),
                 place: id(p),
             });
         }

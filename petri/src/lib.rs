@@ -26,10 +26,14 @@
 pub mod compile;
 pub mod export;
 pub mod game;
+pub mod name;
 pub mod net;
 pub mod pretty;
 pub mod stats;
 
 pub use compile::compile;
 pub use game::{Marking, Outcome, Run};
-pub use net::{Guard, GuardKind, Net, Node, Owner, Place, PlaceKind, Transition, TransitionKind};
+pub use name::Name;
+pub use net::{
+    Guard, GuardKind, Net, Node, Owner, Place, PlaceKind, SharedAction, Transition, TransitionKind,
+};

@@ -18,6 +18,8 @@ use serde::{Deserialize, Serialize};
 use eamos_lang::hir::{DroneId, Expr};
 use eamos_lang::Span;
 
+pub use crate::name::Name;
+
 /// Who runs a node.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Owner {
@@ -37,9 +39,9 @@ pub enum Node {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Place {
     /// Stable, unique, XML-safe id (`p17`, `final`).
-    pub id: String,
+    pub id: Name,
     /// What a person reads in a drawing.
-    pub label: String,
+    pub label: Name,
     pub kind: PlaceKind,
     pub owner: Owner,
     pub span: Option<Span>,
@@ -54,7 +56,7 @@ pub enum PlaceKind {
     /// Between two steps of control flow.
     Control,
     /// Marked while a drone action runs.
-    Running(ActionRef),
+    Running(SharedAction),
     /// Marked once the event has been signalled.
     Event(String),
     /// Marked until the event is signalled (keeps `Signal` 1-safe).
@@ -76,8 +78,8 @@ impl PlaceKind {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Transition {
     /// Stable, unique, XML-safe id (`t42`).
-    pub id: String,
-    pub label: String,
+    pub id: Name,
+    pub label: Name,
     pub kind: TransitionKind,
     pub owner: Owner,
     pub span: Span,
@@ -170,12 +172,18 @@ impl Guard {
     }
 }
 
+/// An action as the nodes of a net hold it: one allocation shared by its
+/// start, running place, end and cancels, and by every copy of the net
+/// (distributed net, slices). Inline, with its name and arguments, it was
+/// the largest part of every node. Serialised as the action itself.
+pub type SharedAction = std::sync::Arc<ActionRef>;
+
 /// One action instance of the mission (each call of a block is its own
 /// instance, so the same source line can yield several).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ActionRef {
     pub drone: DroneId,
-    pub name: String,
+    pub name: Name,
     pub args: Vec<f64>,
     /// Unique per action instance in the net.
     pub instance: u32,
@@ -186,11 +194,11 @@ pub enum TransitionKind {
     /// Takes the initial token and starts the mission.
     Init,
     /// Asks the drone to start the action: input control place -> running.
-    ActionStart(ActionRef),
+    ActionStart(SharedAction),
     /// The action has reported success: running -> next control place.
-    ActionEnd(ActionRef),
+    ActionEnd(SharedAction),
     /// The action is cancelled by an interrupted `Do`: running -> next place.
-    ActionCancel(ActionRef),
+    ActionCancel(SharedAction),
     /// Passes over a step without running it (inside an interrupted `Do`).
     Skip,
     Fork,
@@ -216,7 +224,7 @@ pub enum TransitionKind {
 }
 
 impl TransitionKind {
-    pub fn action(&self) -> Option<&ActionRef> {
+    pub fn action(&self) -> Option<&SharedAction> {
         match self {
             TransitionKind::ActionStart(a)
             | TransitionKind::ActionEnd(a)
@@ -285,6 +293,29 @@ impl ColourOp {
 
 pub type NodeId = NodeIndex<u32>;
 
+/// The id of the `index`th node, `p17` or `t42`, written on the stack
+/// digit by digit: the [`Name`] is then the node's only allocation for it,
+/// and the formatting machinery (some 300 instructions an id, one id per
+/// node) is not needed for a prefix and a number.
+fn indexed_id(prefix: char, index: usize) -> Name {
+    let mut buf = [0u8; 32];
+    let mut at = buf.len();
+    let mut n = index;
+    loop {
+        at -= 1;
+        buf[at] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    let mut utf8 = [0u8; 4];
+    let prefix = prefix.encode_utf8(&mut utf8).as_bytes();
+    at -= prefix.len();
+    buf[at..at + prefix.len()].copy_from_slice(prefix);
+    Name::from(std::str::from_utf8(&buf[at..]).expect("a char and ASCII digits"))
+}
+
 /// A place that the owners of its consumers pull onto several drones.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OwnershipViolation {
@@ -341,12 +372,19 @@ impl Net {
         }
     }
 
+    /// The id an empty id becomes on the next node added: `p<index>` for
+    /// a place, `t<index>` for a transition. A compiler that knows its
+    /// nodes get indexed ids passes this one instead of an empty one.
+    pub fn next_id(&self, prefix: char) -> Name {
+        indexed_id(prefix, self.graph.node_count())
+    }
+
     /// Adds a place; an empty id becomes `p<index>`.
     pub fn add_place(&mut self, mut place: Place) -> NodeId {
         // The id is known before the node is added: adding first and
         // rewriting it cloned every node of the net once.
         if place.id.is_empty() {
-            place.id = format!("p{}", self.graph.node_count());
+            place.id = indexed_id('p', self.graph.node_count());
         }
         self.graph.add_node(Node::Place(place))
     }
@@ -354,7 +392,7 @@ impl Net {
     /// Adds a transition; an empty id becomes `t<index>`.
     pub fn add_transition(&mut self, mut t: Transition) -> NodeId {
         if t.id.is_empty() {
-            t.id = format!("t{}", self.graph.node_count());
+            t.id = indexed_id('t', self.graph.node_count());
         }
         self.graph.add_node(Node::Transition(t))
     }
@@ -534,6 +572,13 @@ mod tests {
     use super::*;
 
     #[test]
+    fn indexed_ids_are_the_prefix_and_the_index() {
+        assert_eq!(indexed_id('p', 0), "p0");
+        assert_eq!(indexed_id('t', 42), "t42");
+        assert_eq!(indexed_id('p', usize::MAX), format!("p{}", usize::MAX));
+    }
+
+    #[test]
     fn colour_functions_count_loop_iterations() {
         assert_eq!(ColourOp::Enter.apply(&[2]), vec![2, 0]);
         assert_eq!(ColourOp::Next.apply(&[2, 0]), vec![2, 1]);
@@ -568,7 +613,7 @@ mod tests {
     fn a_place_consumed_by_two_drones_is_an_ownership_violation() {
         let mut net = Net::new("M", vec!["D1".into(), "D2".into()], vec![]);
         let p = net.add_place(Place {
-            id: String::new(),
+            id: Name::default(),
             label: "p".into(),
             kind: PlaceKind::Control,
             owner: Owner::Unassigned,
@@ -577,7 +622,7 @@ mod tests {
         });
         for d in [0, 1] {
             let t = net.add_transition(Transition {
-                id: String::new(),
+                id: Name::default(),
                 label: "t".into(),
                 kind: TransitionKind::Silent,
                 owner: Owner::Drone(DroneId(d)),

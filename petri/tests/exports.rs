@@ -112,10 +112,10 @@ fn pnml_round_trips_places_transitions_arcs_and_the_initial_marking() {
             );
             // Same labels, same initial marking.
             for (_, p) in net.places() {
-                assert_eq!(back.places[&p.id].0, p.label, "{name}");
+                assert_eq!(back.places[p.id.as_str()].0, p.label, "{name}");
             }
             for (_, t) in net.transitions() {
-                assert_eq!(back.transitions[&t.id], t.label, "{name}");
+                assert_eq!(back.transitions[t.id.as_str()], t.label, "{name}");
             }
             let marked: BTreeSet<&str> = back
                 .places

@@ -147,8 +147,8 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
                 Node::Transition(_) => 0,
             };
             let channel = graph.add_node(Node::Place(Place {
-                id: format!("bridge{}", b.id),
-                label: format!("bridge {} {} -> {}", b.id, s.drone, b.to),
+                id: format!("bridge{}", b.id).into(),
+                label: format!("bridge {} {} -> {}", b.id, s.drone, b.to).into(),
                 kind: PlaceKind::Control,
                 owner: Owner::Unassigned,
                 span: None,
@@ -156,8 +156,8 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
             }));
             let span = s.transitions[b.transition as usize].transition.span;
             let deliver = graph.add_node(Node::Transition(Transition {
-                id: format!("deliver{}", b.id),
-                label: format!("deliver bridge {}", b.id),
+                id: format!("deliver{}", b.id).into(),
+                label: format!("deliver bridge {}", b.id).into(),
                 kind: TransitionKind::Silent,
                 owner: Owner::Unassigned,
                 span,
@@ -232,8 +232,8 @@ fn end_protocol(
     };
     let place = |graph: &mut DiGraph<Node, Arc>, id: String, kind| {
         graph.add_node(Node::Place(Place {
-            label: id.clone(),
-            id,
+            label: id.clone().into(),
+            id: id.into(),
             kind,
             owner: Owner::Unassigned,
             span: None,
@@ -242,8 +242,8 @@ fn end_protocol(
     };
     let transition = |graph: &mut DiGraph<Node, Arc>, id: String, kind| {
         graph.add_node(Node::Transition(Transition {
-            label: id.clone(),
-            id,
+            label: id.clone().into(),
+            id: id.into(),
             kind,
             owner: Owner::Unassigned,
             span: Default::default(),

@@ -78,13 +78,31 @@ pub fn net_id(net: &Net) -> String {
 /// drone, named by the net's hash ([`net_id`]): for tools and tests that
 /// have no fleet. A mission to fly is cut with [`slice_as`] under its
 /// identity.
+///
+/// The hash and the partition do not depend on each other, and only the
+/// cut needs the hash: it is computed on a second thread while the net is
+/// partitioned (a tenth of the stress mission's compile taken off its
+/// critical path), or in turn where no thread can be started.
 pub fn slice(net: &Net) -> Result<Slices, SliceError> {
-    slice_as(net, &net_id(net))
+    std::thread::scope(|scope| {
+        let hashing = std::thread::Builder::new()
+            .name("net-id".into())
+            .spawn_scoped(scope, || net_id(net));
+        slice_under(net, || match hashing {
+            Ok(h) => h.join().unwrap_or_else(|p| std::panic::resume_unwind(p)),
+            Err(_) => net_id(net),
+        })
+    })
 }
 
 /// Slices a mission net under the mission identity `identity`, which every
 /// slice carries from birth.
 pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
+    slice_under(net, || identity.to_string())
+}
+
+/// [`slice_as`], asking for the identity only when the slices are cut.
+fn slice_under(net: &Net, identity: impl FnOnce() -> String) -> Result<Slices, SliceError> {
     if let Some(name) = net.drones.iter().find(|d| *d == GCS) {
         return Err(SliceError::ReservedName(name.clone()));
     }
@@ -118,10 +136,14 @@ pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
     let owner = assignment.node_owners(&units);
     let bundles = plan_bundles(work, &facts, &owner);
     let distributed = apply_bundles(work, &owner, &bundles, end.as_ref());
-    let slices = cut_along_owners(&distributed, identity);
+    // The partition's working state is done with: freed before the cut,
+    // its memory is reused by the slices instead of adding to the peak.
+    drop((units, facts, assignment, owner, bundles, end));
+    let identity = identity();
+    let slices = cut_along_owners(&distributed, &identity);
     Ok(Slices {
         mission: net.name.clone(),
-        mission_id: identity.to_string(),
+        mission_id: identity,
         slices,
         distributed,
     })
@@ -220,16 +242,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     (ColourOp::Keep, max_input_depth(work, *transition))
                 };
                 let inbox = graph.add_node(Node::Place(Place {
-                    id: format!("{}.out.{}.p", t.id, name(*to)),
-                    label: format!("from {}", t.label),
+                    id: format!("{}.out.{}.p", t.id, name(*to)).into(),
+                    label: format!("from {}", t.label).into(),
                     kind: PlaceKind::Control,
                     owner: *to,
                     span: Some(t.span),
                     depth,
                 }));
                 let proxy = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.out.{}", t.id, name(*to)),
-                    label: format!("fan-out of {}", t.label),
+                    id: format!("{}.out.{}", t.id, name(*to)).into(),
+                    label: format!("fan-out of {}", t.label).into(),
                     kind: TransitionKind::Fork,
                     owner: *to,
                     span: t.span,
@@ -255,8 +277,8 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     }
                 }
                 let pre = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.in.{}", j.id, name(*from)),
-                    label: format!("join on {} before {}", name(*from), j.label),
+                    id: format!("{}.in.{}", j.id, name(*from)).into(),
+                    label: format!("join on {} before {}", name(*from), j.label).into(),
                     kind: TransitionKind::Join,
                     owner: *from,
                     span: j.span,
@@ -264,8 +286,8 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                     delay: None,
                 }));
                 let inbox = graph.add_node(Node::Place(Place {
-                    id: format!("{}.in.{}.p", j.id, name(*from)),
-                    label: format!("joined on {}", name(*from)),
+                    id: format!("{}.in.{}.p", j.id, name(*from)).into(),
+                    label: format!("joined on {}", name(*from)).into(),
                     kind: PlaceKind::Control,
                     owner: owner[join.index()],
                     span: Some(j.span),
@@ -282,16 +304,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
                 let first = net.graph.edge_endpoints(arcs[0]).expect("edge").0;
                 let span = net.transition(first).map(|t| t.span).unwrap_or_default();
                 let local = graph.add_node(Node::Place(Place {
-                    id: format!("{}.fwd.{}.p", p.id, name(*from)),
-                    label: format!("{} on {}", p.label, name(*from)),
+                    id: format!("{}.fwd.{}.p", p.id, name(*from)).into(),
+                    label: format!("{} on {}", p.label, name(*from)).into(),
                     kind: PlaceKind::Control,
                     owner: *from,
                     span: p.span,
                     depth: p.depth,
                 }));
                 let fwd = graph.add_node(Node::Transition(Transition {
-                    id: format!("{}.fwd.{}", p.id, name(*from)),
-                    label: format!("forward to {}", p.label),
+                    id: format!("{}.fwd.{}", p.id, name(*from)).into(),
+                    label: format!("forward to {}", p.label).into(),
                     kind: TransitionKind::Silent,
                     owner: *from,
                     span,
@@ -331,16 +353,16 @@ fn apply_bundles(work: Work, owner: &[Owner], bundles: &[Bundle], end: Option<&E
         for (o, inputs) in by_owner {
             let who = name(o);
             let place = graph.add_node(Node::Place(Place {
-                id: format!("final.{who}"),
-                label: format!("end of the mission on {who}"),
+                id: format!("final.{who}").into(),
+                label: format!("end of the mission on {who}").into(),
                 kind: PlaceKind::Final,
                 owner: o,
                 span: Some(span),
                 depth: 0,
             }));
             let t = graph.add_node(Node::Transition(Transition {
-                id: format!("end.{who}"),
-                label: format!("{} on {who}", finish.label),
+                id: format!("end.{who}").into(),
+                label: format!("{} on {who}", finish.label).into(),
                 kind: TransitionKind::Finish,
                 owner: o,
                 span,

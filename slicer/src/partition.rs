@@ -206,8 +206,8 @@ fn conflict(work: Work, nodes: &[NodeId], owners: Vec<Owner>) -> SliceError {
 
 pub(crate) fn node_id(net: &Net, v: NodeId) -> String {
     match &net.graph[v] {
-        Node::Place(p) => p.id.clone(),
-        Node::Transition(t) => t.id.clone(),
+        Node::Place(p) => p.id.to_string(),
+        Node::Transition(t) => t.id.to_string(),
     }
 }
 

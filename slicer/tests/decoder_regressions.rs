@@ -23,7 +23,7 @@ fn an_argument_that_needs_17_digits_survives_the_json_form_exactly() {
     let mut changed = 0;
     for p in &mut s.places {
         if let PlaceKind::Running(a) = &mut p.kind {
-            for x in &mut a.args {
+            for x in &mut std::sync::Arc::make_mut(a).args {
                 *x = 1.000_000_000_014_324_5;
                 changed += 1;
             }
@@ -48,7 +48,7 @@ fn a_slice_with_an_argument_that_is_not_a_number_is_refused() {
         .places
         .iter_mut()
         .find_map(|p| match &mut p.kind {
-            PlaceKind::Running(a) if a.name == "Takeoff" => Some(a),
+            PlaceKind::Running(a) if a.name == "Takeoff" => Some(std::sync::Arc::make_mut(a)),
             _ => None,
         })
         .expect("Drone2 takes off");
@@ -77,7 +77,9 @@ fn a_slice_with_an_infinite_delay_or_argument_on_a_transition_is_refused() {
     match &mut t.transition.kind {
         TransitionKind::ActionStart(a)
         | TransitionKind::ActionEnd(a)
-        | TransitionKind::ActionCancel(a) => a.args[0] = f64::NEG_INFINITY,
+        | TransitionKind::ActionCancel(a) => {
+            std::sync::Arc::make_mut(a).args[0] = f64::NEG_INFINITY
+        }
         other => panic!("only actions have arguments: {other:?}"),
     }
     for s in [delayed, moved] {

@@ -4,7 +4,7 @@
 use eamos_lang::hir::DroneId;
 use eamos_lang::Span;
 use eamos_petri::net::{
-    ActionRef, ColourOp, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Name, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
 };
 use eamos_slicer::compose::{compose, ComposeError};
 use eamos_slicer::equivalence::{compare, Budget, Event, Step, Verdict};
@@ -33,7 +33,7 @@ impl B {
 
     fn place(&mut self, label: &str) -> NodeId {
         self.net.add_place(Place {
-            id: String::new(),
+            id: Name::default(),
             label: label.into(),
             kind: PlaceKind::Control,
             owner: Owner::Unassigned,
@@ -44,7 +44,7 @@ impl B {
 
     fn trans(&mut self, label: &str, kind: TransitionKind, owner: Owner) -> NodeId {
         self.net.add_transition(Transition {
-            id: String::new(),
+            id: Name::default(),
             label: label.into(),
             kind,
             owner,
@@ -63,16 +63,16 @@ impl B {
             instance: self.instance,
         };
         self.instance += 1;
-        let start = self.trans("start", TransitionKind::ActionStart(a.clone()), d(o));
+        let start = self.trans("start", TransitionKind::ActionStart(a.clone().into()), d(o));
         let running = self.net.add_place(Place {
-            id: String::new(),
+            id: Name::default(),
             label: "running".into(),
-            kind: PlaceKind::Running(a.clone()),
+            kind: PlaceKind::Running(a.clone().into()),
             owner: d(o),
             span: None,
             depth: 0,
         });
-        let end = self.trans("end", TransitionKind::ActionEnd(a), d(o));
+        let end = self.trans("end", TransitionKind::ActionEnd(a.into()), d(o));
         let after = self.place("after");
         self.net.arc(from, start, ColourOp::Keep);
         self.net.arc(start, running, ColourOp::Keep);

@@ -155,8 +155,8 @@ fn the_net_hash_names_one_net_and_only_that_net() {
     let mut edited = net.clone();
     let v = edited.graph.node_indices().next_back().unwrap();
     match &mut edited.graph[v] {
-        eamos_petri::net::Node::Place(p) => p.label.push('\''),
-        eamos_petri::net::Node::Transition(t) => t.label.push('\''),
+        eamos_petri::net::Node::Place(p) => p.label = format!("{}'", p.label).into(),
+        eamos_petri::net::Node::Transition(t) => t.label = format!("{}'", t.label).into(),
     }
     assert_ne!(eamos_slicer::net_id(&edited), id);
 }

@@ -54,7 +54,7 @@ pub fn conforms(net: &Net, observed: &Observed, complete: bool) -> Result<(), St
     let groups = ties(seen);
     let drones = net.drones.clone();
     let mut oracle = |t: &Transition, _: &Guard, c: &[u32]| {
-        observed.decided.contains(&(t.id.clone(), c.to_vec()))
+        observed.decided.contains(&(t.id.to_string(), c.to_vec()))
     };
     let start = State {
         marking: Marking::initial(net),

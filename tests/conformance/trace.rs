@@ -88,7 +88,7 @@ pub fn observe(net: &Net, events: &[Event]) -> Observed {
                     continue;
                 };
                 if t.guard.as_ref().is_some_and(|g| g.condition().is_some()) {
-                    out.decided.insert((t.id.clone(), colour.clone()));
+                    out.decided.insert((t.id.to_string(), colour.clone()));
                 }
                 let (step, a) = match &t.kind {
                     TransitionKind::ActionEnd(a) => (Step::End, a),
@@ -106,7 +106,7 @@ pub fn observe(net: &Net, events: &[Event]) -> Observed {
                     time: e.time,
                     drone: e.drone.clone(),
                     step,
-                    action: a.name.clone(),
+                    action: a.name.to_string(),
                     args: a.args.clone(),
                     instance: a.instance,
                     colour: colour.clone(),

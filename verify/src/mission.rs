@@ -94,7 +94,7 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
                     if what.is_empty() { "condition" } else { what },
                     if held { "holds" } else { "does not hold" }
                 ),
-                _ if !t.label.is_empty() => t.label.clone(),
+                _ if !t.label.is_empty() => t.label.to_string(),
                 _ => format!(
                     "{}: takes a branch",
                     if what.is_empty() { "branch" } else { what }
@@ -126,12 +126,15 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
         }
         TransitionKind::Signal => (
             "Signal",
-            here.clone().unwrap_or_else(|| t.label.clone()),
+            here.clone().unwrap_or_else(|| t.label.to_string()),
             false,
         ),
         TransitionKind::Await => (
             "Await",
-            format!("{} passes", here.clone().unwrap_or_else(|| t.label.clone())),
+            format!(
+                "{} passes",
+                here.clone().unwrap_or_else(|| t.label.to_string())
+            ),
             false,
         ),
         TransitionKind::Interrupt => {
@@ -157,8 +160,8 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
     // A guarded plumbing step is a choice a person must see.
     let internal = internal && guard.is_none();
     StepInfo {
-        id: t.id.clone(),
-        label: t.label.clone(),
+        id: t.id.to_string(),
+        label: t.label.to_string(),
         kind: kind.to_string(),
         text,
         internal,
@@ -221,8 +224,8 @@ pub(crate) fn subject(
             _ => None,
         };
         places.push(PlaceInfo {
-            id: p.id.clone(),
-            label: p.label.clone(),
+            id: p.id.to_string(),
+            label: p.label.to_string(),
             span: p.span,
             event,
             is_final: n == net.final_place,
@@ -250,7 +253,7 @@ pub(crate) fn subject(
             running_by_drone
                 .entry(a.drone.0)
                 .or_default()
-                .push((i, a.name.clone()));
+                .push((i, a.name.to_string()));
         }
     }
     // RepeatFor loops: the head place of each, with its count.

@@ -6,7 +6,7 @@
 use eamos_lang::hir::DroneId;
 use eamos_lang::Span;
 use eamos_petri::net::{
-    ActionRef, ColourOp, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Name, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
 };
 use eamos_verify::{check_net, FindingKind, Options, Report};
 use proptest::prelude::*;
@@ -67,18 +67,21 @@ fn build(r: &RandomNet) -> (Net, String) {
     let mut ids: Vec<NodeId> = vec![net.initial_place, net.final_place];
     for i in 0..r.places {
         let kind = if i < ACTIONS.len() {
-            PlaceKind::Running(ActionRef {
-                drone: DroneId(0),
-                name: ACTIONS[i].into(),
-                args: vec![],
-                instance: i as u32,
-            })
+            PlaceKind::Running(
+                ActionRef {
+                    drone: DroneId(0),
+                    name: ACTIONS[i].into(),
+                    args: vec![],
+                    instance: i as u32,
+                }
+                .into(),
+            )
         } else {
             PlaceKind::Control
         };
         let p = net.add_place(Place {
-            id: String::new(),
-            label: format!("p{i}"),
+            id: Name::default(),
+            label: format!("p{i}").into(),
             kind,
             owner: Owner::Unassigned,
             span: Some(spans_p[i + 2]),
@@ -102,17 +105,20 @@ fn build(r: &RandomNet) -> (Net, String) {
         post.dedup();
         // A transition producing into a running place starts its action.
         let kind = match post.iter().find(|&&p| (2..2 + ACTIONS.len()).contains(&p)) {
-            Some(&p) => TransitionKind::ActionStart(ActionRef {
-                drone: DroneId(0),
-                name: ACTIONS[p - 2].into(),
-                args: vec![],
-                instance: (p - 2) as u32,
-            }),
+            Some(&p) => TransitionKind::ActionStart(
+                ActionRef {
+                    drone: DroneId(0),
+                    name: ACTIONS[p - 2].into(),
+                    args: vec![],
+                    instance: (p - 2) as u32,
+                }
+                .into(),
+            ),
             None => TransitionKind::Silent,
         };
         let t = net.add_transition(Transition {
-            id: String::new(),
-            label: format!("t{k}"),
+            id: Name::default(),
+            label: format!("t{k}").into(),
             kind,
             owner: Owner::Unassigned,
             span: spans_t[k],

@@ -232,10 +232,10 @@ fn transition(slice: &Slice, kind: &str, name: &str) -> (String, u32) {
         .iter()
         .find_map(|t| match &t.transition.kind {
             TransitionKind::ActionStart(a) if kind == "start" && a.name == name => {
-                Some((t.transition.id.clone(), a.instance))
+                Some((t.transition.id.to_string(), a.instance))
             }
             TransitionKind::ActionEnd(a) if kind == "end" && a.name == name => {
-                Some((t.transition.id.clone(), a.instance))
+                Some((t.transition.id.to_string(), a.instance))
             }
             _ => None,
         })
@@ -264,7 +264,7 @@ fn a_firing_whose_message_was_not_journaled_as_sent_is_sent_on_resume() {
     let b = &slice.bridges_out[0];
     let t = &slice.transitions[b.transition as usize].transition.id;
     let fired = Record::Fired {
-        transition: t.clone(),
+        transition: t.to_string(),
         colour: vec![],
     };
     let r = replay(slice, "j", std::slice::from_ref(&fired)).unwrap();
@@ -442,7 +442,7 @@ fn pause_transition(slice: &Slice) -> String {
         .transitions
         .iter()
         .find(|t| t.transition.delay.is_some())
-        .map(|t| t.transition.id.clone())
+        .map(|t| t.transition.id.to_string())
         .unwrap()
 }
 

@@ -178,12 +178,12 @@ async fn every_sink_of_a_run_sees_the_same_events_in_order_and_the_last_marking_
             .iter()
             .zip(&slice.places)
             .filter(|(tokens, _)| !tokens.is_empty())
-            .map(|(_, p)| p.id.clone())
+            .map(|(_, p)| p.id.to_string())
             .collect();
         journaled.sort();
         assert_eq!(last, journaled, "{peer}");
         if let Some(f) = slice.final_place {
-            if last.contains(&slice.places[f as usize].id) {
+            if last.iter().any(|m| *m == slice.places[f as usize].id) {
                 finals += 1;
             }
         }

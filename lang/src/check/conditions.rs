@@ -131,7 +131,7 @@ impl<'a> Checker<'a> {
             return None;
         };
         let what = format!("`{drone_name}.{}`", field.name);
-        if !self.check_count(&what, &sig.params, args) {
+        if !self.check_count(&|| what.clone(), &sig.params, args) {
             return None;
         }
         let mut drone_args = Vec::new();

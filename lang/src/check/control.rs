@@ -195,7 +195,8 @@ impl<'a> Checker<'a> {
                 Some(hir::Stmt::Pause { mode, cond, span })
             }
             K::RepeatFor => {
-                let n = self.const_number(&args[0], env, ctx, "the count of `RepeatFor`");
+                let n =
+                    self.const_number(&args[0], env, ctx, &|| "the count of `RepeatFor`".into());
                 let body = self.block_arg(c, &args[1], env, ctx, true);
                 let n = n?;
                 let count = if n.is_nan() {
@@ -231,7 +232,8 @@ impl<'a> Checker<'a> {
                 })
             }
             K::PauseFor => {
-                let s = self.const_number(&args[0], env, ctx, "the duration of `PauseFor`")?;
+                let s =
+                    self.const_number(&args[0], env, ctx, &|| "the duration of `PauseFor`".into())?;
                 if s < 0.0 {
                     let d = Diagnostic::error(
                         "eamos::negative-pause",

@@ -349,7 +349,7 @@ impl<'a> Checker<'a> {
                     ));
                 }
                 ParamTy::Number { integer } => {
-                    let what = format!("argument `{}` of `{}`", param.name.name, b.name.name);
+                    let what = || format!("argument `{}` of `{}`", param.name.name, b.name.name);
                     if let Some(n) = arg.as_name() {
                         let is_drone = matches!(env.get(n), Some(Binding::Drone { .. }))
                             || (env.get(n).is_none()
@@ -359,7 +359,7 @@ impl<'a> Checker<'a> {
                                 Diagnostic::error(
                                     "eamos::arg-kind",
                                     arg.span,
-                                    format!("{what} is a number, but `{n}` is a drone"),
+                                    format!("{} is a number, but `{n}` is a drone", what()),
                                 )
                                 .with_label("expected a number")
                                 .with_note_at(param.span, "declared here"),
@@ -376,7 +376,7 @@ impl<'a> Checker<'a> {
                         let d = Diagnostic::error(
                             "eamos::arg-kind",
                             arg.span,
-                            format!("{what} must be a whole number, found {v}"),
+                            format!("{} must be a whole number, found {v}", what()),
                         )
                         .with_label("not a whole number")
                         .with_note_at(param.span, "declared here");

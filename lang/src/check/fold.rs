@@ -105,12 +105,14 @@ impl<'a> Checker<'a> {
 
     /// A numeric constant expression, folded (`None` if it has an error,
     /// reported). In the check pass a number parameter folds to a stand-in.
+    /// `what` names the expression in a diagnostic: formatted only for one,
+    /// not for every argument of a mission that has none.
     pub(super) fn const_number(
         &mut self,
         e: &'a ast::Expr,
         env: &Env<'a>,
         ctx: &Ctx,
-        what: &str,
+        what: &dyn Fn() -> String,
     ) -> Option<f64> {
         let low = self.lower_expr(e, env, ctx)?;
         if low.ty == Ty::Bool {
@@ -118,7 +120,7 @@ impl<'a> Checker<'a> {
                 Diagnostic::error(
                     "eamos::type-mismatch",
                     e.span,
-                    format!("{what} must be a number, found a boolean"),
+                    format!("{} must be a number, found a boolean", what()),
                 )
                 .with_label("a boolean"),
             );
@@ -128,7 +130,7 @@ impl<'a> Checker<'a> {
             Konst::Num(v) => Some(v),
             Konst::Unknown => Some(f64::NAN),
             _ => {
-                self.emit(not_constant(e, what));
+                self.emit(not_constant(e, &what()));
                 None
             }
         }

@@ -51,7 +51,7 @@ impl<'a> Checker<'a> {
             self.emit(d);
             return None;
         };
-        let what = format!("`{}.{}`", a.drone.name, a.action.name);
+        let what = || format!("`{}.{}`", a.drone.name, a.action.name);
         if !self.check_count(&what, &sig.params, &a.args) {
             return None;
         }
@@ -73,12 +73,9 @@ impl<'a> Checker<'a> {
                 ok = false;
                 continue;
             }
-            match self.const_number(
-                arg,
-                env,
-                ctx,
-                &format!("argument `{}` of {what}", param.name),
-            ) {
+            match self.const_number(arg, env, ctx, &|| {
+                format!("argument `{}` of {}", param.name, what())
+            }) {
                 Some(v) => args.push(v),
                 None => ok = false,
             }
@@ -98,7 +95,7 @@ impl<'a> Checker<'a> {
     /// Checks the number of arguments against a parameter list.
     pub(super) fn check_count(
         &mut self,
-        what: &str,
+        what: &dyn Fn() -> String,
         params: &[eamos_profile::Param],
         args: &ast::Args,
     ) -> bool {
@@ -126,7 +123,8 @@ impl<'a> Checker<'a> {
                 "eamos::arg-count",
                 span,
                 format!(
-                    "{what} takes {expected}; found {}",
+                    "{} takes {expected}; found {}",
+                    what(),
                     count(args.items.len(), "argument")
                 ),
             )

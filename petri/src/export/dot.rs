@@ -44,7 +44,7 @@ pub fn to_dot(net: &Net) -> String {
             }
             Node::Transition(t) => {
                 owners.insert(t.owner);
-                let mut label = t.label.clone();
+                let mut label = t.label.to_string();
                 if let Some(g) = guard_text(net, t) {
                     if !label.contains(&g) {
                         label.push_str(&format!("\n[{g}]"));

@@ -224,7 +224,7 @@ pub fn started(net: &Net, run: &Run) -> Vec<String> {
     run.transitions()
         .filter_map(|t| net.transition(t))
         .filter(|t| matches!(t.kind, TransitionKind::ActionStart(_)))
-        .map(|t| t.label.clone())
+        .map(|t| t.label.to_string())
         .collect()
 }
 
@@ -253,7 +253,7 @@ pub fn run_to_final(net: &Net, seed: u64) -> Run {
 pub fn marked_labels(net: &Net, run: &Run) -> Vec<String> {
     run.marking
         .places()
-        .map(|p| net.place(p).unwrap().label.clone())
+        .map(|p| net.place(p).unwrap().label.to_string())
         .collect()
 }
 

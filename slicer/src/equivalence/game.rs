@@ -93,7 +93,7 @@ impl Game {
             if v == net.final_place {
                 final_place = place_ids.len() as u32;
             }
-            place_ids.push(p.id.clone());
+            place_ids.push(p.id.to_string());
         }
         let cap = (colour_caps(net) + 1).clamp(2, 250) as u8;
         let silent = |u| {
@@ -151,7 +151,7 @@ impl Game {
                         })
                     });
                 T {
-                    id: t.id.clone(),
+                    id: t.id.to_string(),
                     consume,
                     read,
                     produce,

@@ -6,7 +6,8 @@
 use eamos_lang::hir::{BinaryOp, DroneId, Expr, UnaryOp};
 use eamos_lang::Span;
 use eamos_petri::net::{
-    ActionRef, ColourOp, Guard, GuardKind, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Guard, GuardKind, Owner, Place, PlaceKind, SharedAction, Transition,
+    TransitionKind,
 };
 
 use super::v3;
@@ -154,25 +155,25 @@ fn colour_in(c: v3::Colour) -> ColourOp {
 fn action_out(a: &ActionRef) -> v3::Action {
     v3::Action {
         drone: a.drone.0,
-        name: a.name.clone(),
+        name: a.name.to_string(),
         args: a.args.clone(),
         instance: a.instance,
     }
 }
 
-fn action_in(a: v3::Action) -> ActionRef {
-    ActionRef {
+fn action_in(a: v3::Action) -> SharedAction {
+    SharedAction::new(ActionRef {
         drone: DroneId(a.drone),
-        name: a.name,
+        name: a.name.into(),
         args: a.args,
         instance: a.instance,
-    }
+    })
 }
 
 fn place_out(p: &Place) -> v3::Place {
     v3::Place {
-        id: p.id.clone(),
-        label: p.label.clone(),
+        id: p.id.to_string(),
+        label: p.label.to_string(),
         kind: match &p.kind {
             PlaceKind::Initial => v3::PlaceKind::Initial,
             PlaceKind::Control => v3::PlaceKind::Control,
@@ -196,8 +197,8 @@ fn place_out(p: &Place) -> v3::Place {
 
 fn place_in(p: v3::Place) -> Place {
     Place {
-        id: p.id,
-        label: p.label,
+        id: p.id.into(),
+        label: p.label.into(),
         kind: match p.kind {
             v3::PlaceKind::Initial => PlaceKind::Initial,
             v3::PlaceKind::Control => PlaceKind::Control,
@@ -266,8 +267,8 @@ fn kind_in(k: v3::TransitionKind) -> TransitionKind {
 fn transition_out(st: &SliceTransition) -> v3::Transition {
     let t = &st.transition;
     v3::Transition {
-        id: t.id.clone(),
-        label: t.label.clone(),
+        id: t.id.to_string(),
+        label: t.label.to_string(),
         kind: kind_out(&t.kind),
         owner: owner_out(t.owner),
         span: span_out(t.span),
@@ -307,8 +308,8 @@ fn transition_in(t: v3::Transition) -> Result<SliceTransition, DecodeError> {
     };
     Ok(SliceTransition {
         transition: Transition {
-            id: t.id,
-            label: t.label,
+            id: t.id.into(),
+            label: t.label.into(),
             kind: kind_in(t.kind),
             owner: owner_in(t.owner),
             span: span_in(t.span),

@@ -101,7 +101,7 @@ struct Sites<'a> {
 
 impl Sites<'_> {
     fn fires(&self, t: &SliceTransition) -> bool {
-        self.fired.contains(&t.transition.id)
+        self.fired.contains(t.transition.id.as_str())
     }
 
     fn choose<T: Copy>(&self, sites: &[T]) -> Option<T> {
@@ -186,7 +186,7 @@ fn swap_actions(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
         }
         Node::Place(p) => {
             if let PlaceKind::Running(r) = &mut p.kind {
-                swap(r)
+                swap(std::sync::Arc::make_mut(r))
             }
         }
     };
@@ -198,7 +198,7 @@ fn swap_actions(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
     }
     for p in &mut sl.places {
         if let PlaceKind::Running(r) = &mut p.kind {
-            swap(r)
+            swap(std::sync::Arc::make_mut(r))
         }
     }
     let mut analog = net.clone();
@@ -301,15 +301,15 @@ fn action_of(kind: &mut TransitionKind) -> Option<&mut ActionRef> {
     match kind {
         TransitionKind::ActionStart(a)
         | TransitionKind::ActionEnd(a)
-        | TransitionKind::ActionCancel(a) => Some(a),
+        | TransitionKind::ActionCancel(a) => Some(std::sync::Arc::make_mut(a)),
         _ => None,
     }
 }
 
 fn action_refs(net: &Net) -> BTreeMap<u32, ActionRef> {
     net.transitions()
-        .filter_map(|(_, t)| t.kind.action().cloned())
-        .map(|a| (a.instance, a))
+        .filter_map(|(_, t)| t.kind.action())
+        .map(|a| (a.instance, ActionRef::clone(a)))
         .collect()
 }
 
@@ -325,7 +325,7 @@ fn move_unit(
     let d = &s.distributed;
     let sites: Vec<_> = d
         .transitions()
-        .filter(|(_, t)| what(t) && at.fired.contains(&t.id))
+        .filter(|(_, t)| what(t) && at.fired.contains(t.id.as_str()))
         .map(|(v, _)| v)
         .collect();
     let start = at.choose(&sites)?;

@@ -58,7 +58,7 @@ pub(crate) fn tracked(
             .profiles
             .get(a.drone.0 as usize)
             .and_then(|name| profiles.get(name))
-            .and_then(|profile| profile.actions.get(&a.name))
+            .and_then(|profile| profile.actions.get(a.name.as_str()))
         else {
             continue;
         };
@@ -68,7 +68,7 @@ pub(crate) fn tracked(
         let mut t = Tracked {
             drone: a.drone.0,
             running: r,
-            action: a.clone(),
+            action: ActionRef::clone(a),
             sig: sig.clone(),
             span: p.span.unwrap_or_default(),
             starts: net.producers(r).collect(),

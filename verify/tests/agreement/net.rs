@@ -7,7 +7,8 @@
 use eamos_lang::hir::{BinaryOp, DroneId, Expr};
 use eamos_lang::Span;
 use eamos_petri::net::{
-    ActionRef, ColourOp, Guard, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Guard, Name, Net, NodeId, Owner, Place, PlaceKind, Transition,
+    TransitionKind,
 };
 use proptest::prelude::*;
 
@@ -84,19 +85,22 @@ pub fn build(r: &RandomNet) -> (Net, String) {
         let span = Some(line(&format!("place {i}")));
         let drone = DroneId((i % r.drones) as u16);
         let kind = match kind {
-            2 => PlaceKind::Running(ActionRef {
-                drone,
-                name: ACTIONS[i % ACTIONS.len()].into(),
-                args: vec![],
-                instance: i as u32,
-            }),
+            2 => PlaceKind::Running(
+                ActionRef {
+                    drone,
+                    name: ACTIONS[i % ACTIONS.len()].into(),
+                    args: vec![],
+                    instance: i as u32,
+                }
+                .into(),
+            ),
             3 if i % 2 == 0 => PlaceKind::Event(format!("e{i}")),
             3 => PlaceKind::EventPending(format!("e{i}")),
             _ => PlaceKind::Control,
         };
         let p = net.add_place(Place {
-            id: String::new(),
-            label: format!("p{i}"),
+            id: Name::default(),
+            label: format!("p{i}").into(),
             kind,
             owner: Owner::Unassigned,
             span,
@@ -154,8 +158,8 @@ pub fn build(r: &RandomNet) -> (Net, String) {
             Box::new(Guard::cond(conditions[d][k as usize].clone(), negated))
         });
         let t = net.add_transition(Transition {
-            id: String::new(),
-            label: format!("t{k}"),
+            id: Name::default(),
+            label: format!("t{k}").into(),
             kind,
             owner: Owner::Unassigned,
             span,

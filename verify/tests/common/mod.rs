@@ -7,7 +7,8 @@
 use eamos_lang::hir::{BinaryOp, DroneId, Expr};
 use eamos_lang::Span;
 use eamos_petri::net::{
-    ActionRef, ColourOp, Guard, Net, NodeId, Owner, Place, PlaceKind, Transition, TransitionKind,
+    ActionRef, ColourOp, Guard, Name, Net, NodeId, Owner, Place, PlaceKind, Transition,
+    TransitionKind,
 };
 
 pub struct Builder {
@@ -49,7 +50,7 @@ impl Builder {
 
     pub fn place_of(&mut self, label: &str, kind: PlaceKind, span: Option<Span>) -> NodeId {
         self.net.add_place(Place {
-            id: String::new(),
+            id: Name::default(),
             label: label.into(),
             kind,
             owner: Owner::Unassigned,
@@ -78,8 +79,8 @@ impl Builder {
         post: &[NodeId],
     ) -> NodeId {
         let t = self.net.add_transition(Transition {
-            id: String::new(),
-            label: String::new(),
+            id: Name::default(),
+            label: Name::default(),
             kind,
             owner: Owner::Unassigned,
             span,
@@ -148,17 +149,22 @@ impl Builder {
         };
         let running = self.place_of(
             &format!("running {needle}"),
-            PlaceKind::Running(a.clone()),
+            PlaceKind::Running(a.clone().into()),
             Some(span),
         );
         let after = self.place(&format!("after {needle}"));
         self.trans(
-            TransitionKind::ActionStart(a.clone()),
+            TransitionKind::ActionStart(a.clone().into()),
             span,
             &[from],
             &[running],
         );
-        self.trans(TransitionKind::ActionEnd(a), span, &[running], &[after]);
+        self.trans(
+            TransitionKind::ActionEnd(a.into()),
+            span,
+            &[running],
+            &[after],
+        );
         after
     }
 
@@ -311,7 +317,7 @@ pub fn replay(net: &Net, steps: &[eamos_verify::Step]) -> Vec<(String, u32)> {
         .graph
         .node_indices()
         .filter_map(|n| match &net.graph[n] {
-            Node::Place(p) if m[n.index()] > 0 => Some((p.id.clone(), m[n.index()])),
+            Node::Place(p) if m[n.index()] > 0 => Some((p.id.to_string(), m[n.index()])),
             _ => None,
         })
         .collect();
