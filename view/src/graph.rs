@@ -56,19 +56,19 @@ pub(crate) fn graph(net: &Net, source: &SourceFile) -> Graph {
         .node_indices()
         .map(|n| match &net.graph[n] {
             Node::Place(p) => GraphNode {
-                id: p.id.clone(),
+                id: p.id.to_string(),
                 shape: "place",
                 kind: "place",
-                label: p.label.clone(),
+                label: p.label.to_string(),
                 drone: drone(p.owner),
                 line: located(p.span),
                 marked: net.initial_marking.contains(&n),
             },
             Node::Transition(t) => GraphNode {
-                id: t.id.clone(),
+                id: t.id.to_string(),
                 shape: "transition",
                 kind: transition_kind_name(&t.kind),
-                label: t.label.clone(),
+                label: t.label.to_string(),
                 drone: drone(t.owner),
                 line: located(Some(t.span)),
                 marked: false,

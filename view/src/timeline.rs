@@ -129,7 +129,7 @@ fn duration(input: &Input, t: NodeId) -> Option<f64> {
         return None;
     };
     let profile = input.profiles.get(net.profiles.get(a.drone.0 as usize)?)?;
-    let sig = profile.actions.get(&a.name)?;
+    let sig = profile.actions.get(a.name.as_str())?;
     // A flight starts where the checker says the drone is: its first
     // planned leg, in the drone's own frame (from its home).
     let start = match input.plan {
