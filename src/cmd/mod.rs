@@ -11,6 +11,7 @@ pub mod gen;
 pub mod keygen;
 pub mod lsp;
 pub mod mission;
+pub mod monitor;
 pub mod plan;
 pub mod router;
 pub mod run;

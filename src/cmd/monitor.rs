@@ -1,0 +1,54 @@
+//! The live monitor, as the commands that fly start it (`eamos run
+//! --monitor ADDR`): the mission's report page served on ADDR (the
+//! loopback unless the address says otherwise) and fed with the run's
+//! events. The drones never wait for it: it is one more sink of their
+//! events, and it serves nothing that commands a drone.
+
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+
+use eamos_monitor::Feed;
+use tokio_util::sync::CancellationToken;
+
+use super::mission::Mission;
+
+/// `--monitor`'s value: `HOST:PORT`, or a port alone for the loopback.
+pub fn parse_addr(s: &str) -> Result<SocketAddr, String> {
+    if let Ok(port) = s.parse::<u16>() {
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
+    }
+    s.parse::<SocketAddr>().map_err(|_| {
+        format!("`{s}` is not an address to listen on: give HOST:PORT (127.0.0.1:8080) or a port")
+    })
+}
+
+/// A monitor started: feed it the run's events; it serves until `stop`.
+pub struct Running {
+    pub feed: Feed,
+    pub stop: CancellationToken,
+    pub task: tokio::task::JoinHandle<()>,
+}
+
+/// Binds `addr`, then serves `mission`'s report page and the events fed
+/// to it. A taken or bad address is an error before anything flies.
+pub async fn start(addr: SocketAddr, mission: &Mission) -> Result<Running, String> {
+    let monitor = eamos_monitor::bind(addr).await?;
+    let (model, _) = super::view::model_of(
+        &mission.source,
+        &mission.net,
+        &mission.profiles,
+        &mission.fleet,
+        false,
+    );
+    let page = eamos_view::page(&model);
+    let shown = monitor.local_addr().unwrap_or(addr);
+    eprintln!("monitor: http://{shown}/");
+    let feed = Feed::new();
+    let stop = CancellationToken::new();
+    let task = tokio::spawn(eamos_monitor::serve(
+        monitor,
+        page,
+        feed.clone(),
+        stop.clone(),
+    ));
+    Ok(Running { feed, stop, task })
+}
