@@ -1,8 +1,9 @@
 // The live half of the report page, for the monitor (`eamos run
 // --monitor`, `eamos monitor`): a panel per drone (current action,
 // altitude, battery, lost or stuck), a bounded trail behind each marker,
-// the list of signals, awaits and peers lost as they happen, and the
-// closest distance between two drones over mission time.
+// the list of signals, awaits, tokens between peers and peers lost as
+// they happen, and the closest distance between two drones over mission
+// time.
 //
 // `EamosLive.attach(view)` wraps the view's `update(event)` so that the
 // same events (the executor's own, as its log writes them) also feed the
@@ -140,6 +141,9 @@ var EamosLive = (function () {
         return;
       case "fired":
         if (event.kind === "signal" || event.kind === "await") note(live, event, event.kind + " " + event.label, event.kind);
+        return;
+      case "bridge_received":
+        note(live, event, "token from " + event.from + " (bridge " + event.bridge + ")", "bridge");
         return;
       case "peer_lost":
         setState(live, event.peer, "lost (seen by " + event.drone + ")", "lost");
