@@ -155,3 +155,73 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
         "the closest distance",
     );
 }
+
+/// Starts `eamos` with `args`, its output dropped.
+fn start(args: &[&str]) -> Killed {
+    Killed(
+        Command::new(env!("CARGO_BIN_EXE_eamos"))
+            .args(args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("eamos starts"),
+    )
+}
+
+#[test]
+fn eamos_monitor_watches_separate_processes_and_shows_a_killed_drone_lost() {
+    std::fs::create_dir_all(out_dir()).unwrap();
+    let logs = out_dir().join("peers");
+    let mission = repo("../shared/missions/paper/experiment_c.go");
+    let mission = mission.to_str().unwrap();
+    // The observer first: it must see every peer come up to see one go.
+    let (_monitor, url) = start_monitored(&["monitor", mission, "--listen", "127.0.0.1:0"]);
+    let mut peers = Vec::new();
+    for role in [
+        ["--drone", "Drone1"],
+        ["--drone", "Drone2"],
+        ["--drone", "Drone3"],
+    ] {
+        peers.push(start(&[
+            "run",
+            mission,
+            role[0],
+            role[1],
+            "--speed",
+            "0.25",
+            "--out",
+            logs.to_str().unwrap(),
+        ]));
+    }
+    let _gcs = start(&[
+        "run",
+        mission,
+        "--gcs",
+        "--speed",
+        "0.25",
+        "--out",
+        logs.to_str().unwrap(),
+    ]);
+    let b = Browser::start(1300, 1400);
+    b.navigate(&url);
+    // Each drone's telemetry, heard on the mission's network.
+    b.wait_long(
+        "return document.querySelectorAll('#plan .live-drone').length === 3;",
+        PATIENCE,
+        "three drones' markers, from their telemetry on zenoh",
+    );
+    assert_eq!(b.count("#drones-live tr.lost"), 0, "nobody is lost yet");
+
+    // Drone2's process dies: its liveliness token goes, and the page says so.
+    let mut drone2 = peers.remove(1);
+    drone2.0.kill().unwrap();
+    let _ = drone2.0.wait();
+    b.wait_long(
+        "return document.querySelector('#drones-live tr.lost[data-drone=\"1\"]') !== null;",
+        PATIENCE,
+        "Drone2 shown lost",
+    );
+    assert_eq!(b.count("#drones-live tr.lost"), 1, "only Drone2 is lost");
+    assert!(b.count("#events li.lost") >= 1);
+    screenshot(&b, Some("#live"), "monitor-lost.png");
+}

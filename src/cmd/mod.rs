@@ -12,6 +12,7 @@ pub mod keygen;
 pub mod lsp;
 pub mod mission;
 pub mod monitor;
+pub mod observe;
 pub mod plan;
 pub mod router;
 pub mod run;

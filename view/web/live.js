@@ -99,7 +99,6 @@ var EamosLive = (function () {
     var p = event.position;
     live.positions[event.drone] = [p.x, p.y, p.z];
     if (event.time - live.lastClosest < 0.5) return;
-    live.lastClosest = event.time;
     var names = Object.keys(live.positions), best = Infinity, pair = null;
     for (var a = 0; a < names.length; a++) {
       for (var b = a + 1; b < names.length; b++) {
@@ -109,6 +108,7 @@ var EamosLive = (function () {
       }
     }
     if (!pair) return;
+    live.lastClosest = event.time;
     live.series.push([event.time, best]);
     if (live.series.length > SERIES) live.series.shift();
     var c = live.chart, t0 = live.series[0][0], t1 = Math.max(event.time, t0 + 1);

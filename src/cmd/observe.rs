@@ -1,0 +1,75 @@
+//! `eamos monitor MISSION --fleet FLEET`: the live monitor of a mission
+//! flown by separate processes (`eamos run --drone`, `eamos agent`),
+//! joining its zenoh network as a read-only observer: it hears each
+//! drone's telemetry and which peers are up, and shows them on the
+//! mission's page. It declares nothing the peers wait for, publishes
+//! nothing, and the mission flies the same without it. Exit status: 0
+//! stopped (Ctrl-C), 2 bad input.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use super::mission::{self, bad_input};
+
+/// Watch a running mission live: its page, fed from its zenoh network.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission (`.go`), as its peers fly it.
+    pub mission: PathBuf,
+    /// The fleet file its peers fly with (the mission's identity and the
+    /// peers' endpoints come from both).
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// Where to serve the page (`HOST:PORT`, or a port alone for
+    /// 127.0.0.1).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080",
+          value_parser = super::monitor::parse_addr)]
+    pub listen: SocketAddr,
+}
+
+pub fn run(args: Args) -> ExitCode {
+    let colour = false;
+    let loaded = match mission::load(&args.mission, args.fleet.as_deref(), colour) {
+        Ok(m) => m,
+        Err(status) => return status,
+    };
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    let mission_id = loaded.slices.mission_id.clone();
+    let peers = eamos_exec::runner::peers(&loaded.slices);
+    // Named as no peer is, it connects to every peer's endpoints (the
+    // ground station's too) or to the fleet's routers.
+    let options = loaded.fleet.zenoh_options(
+        &mission_id,
+        &peers,
+        eamos_exec::transport::observe::OBSERVER,
+    );
+    runtime.block_on(async {
+        let monitor = match super::monitor::start(args.listen, &loaded).await {
+            Ok(m) => m,
+            Err(e) => return bad_input(&e),
+        };
+        let sink: Arc<dyn eamos_exec::event::Sink> = Arc::new(monitor.feed.clone());
+        let observer =
+            match eamos_exec::transport::observe::observe(&mission_id, &options, sink).await {
+                Ok(o) => o,
+                Err(e) => return bad_input(&e.to_string()),
+            };
+        eprintln!(
+            "watching {} ({}) read-only; Ctrl-C stops",
+            loaded.slices.mission, mission_id
+        );
+        let _ = tokio::signal::ctrl_c().await;
+        observer.close().await;
+        monitor.stop.cancel();
+        let _ = monitor.task.await;
+        ExitCode::SUCCESS
+    })
+}
