@@ -1,6 +1,7 @@
-//! `--monitor`'s bad input: an address that is not one, and a port that is
-//! taken, are refused with a clear error and exit status 2 before anything
-//! flies.
+//! The monitor's bad input (`eamos run --monitor`, `eamos deploy
+//! --monitor`, `eamos monitor --listen`): an address that is not one, and
+//! a port that is taken, are refused with a clear error and exit status 2
+//! before anything flies or is sent.
 
 use std::net::TcpListener;
 use std::path::PathBuf;
@@ -44,4 +45,31 @@ fn a_taken_monitor_port_stops_the_run_before_anything_flies() {
         !out.path().join("Drone1.mission.jsonl").exists(),
         "nothing flew"
     );
+}
+
+#[test]
+fn a_taken_monitor_port_stops_a_deploy_before_any_slice_is_sent() {
+    let taken = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap().to_string();
+    Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("deploy")
+        .arg(mission())
+        .args(["--monitor", &addr, "--wait", "0"])
+        .assert()
+        .code(2)
+        .stderr(contains(format!("the monitor cannot listen on {addr}")))
+        .stdout(contains("deploying").not());
+}
+
+#[test]
+fn eamos_monitor_refuses_an_address_that_is_not_one() {
+    Command::cargo_bin("eamos")
+        .unwrap()
+        .arg("monitor")
+        .arg(mission())
+        .args(["--listen", "here"])
+        .assert()
+        .code(2)
+        .stderr(contains("is not an address to listen on"));
 }

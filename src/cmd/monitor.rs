@@ -52,3 +52,23 @@ pub async fn start(addr: SocketAddr, mission: &Mission) -> Result<Running, Strin
     ));
     Ok(Running { feed, stop, task })
 }
+
+/// Joins `mission`'s zenoh network as a read-only observer feeding
+/// `feed`: each drone's telemetry and which peers are up (see
+/// `eamos_exec::transport::observe`).
+pub async fn observe(
+    mission: &Mission,
+    feed: &Feed,
+) -> Result<eamos_exec::transport::observe::Observer, String> {
+    let id = &mission.slices.mission_id;
+    let peers = eamos_exec::runner::peers(&mission.slices);
+    // Named as no peer is, it connects to every peer's endpoints (the
+    // ground station's too) or to the fleet's routers.
+    let options = mission
+        .fleet
+        .zenoh_options(id, &peers, eamos_exec::transport::observe::OBSERVER);
+    let sink: std::sync::Arc<dyn eamos_exec::event::Sink> = std::sync::Arc::new(feed.clone());
+    eamos_exec::transport::observe::observe(id, &options, sink)
+        .await
+        .map_err(|e| e.to_string())
+}

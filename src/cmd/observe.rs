@@ -9,7 +9,6 @@
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::Arc;
 
 use super::mission::{self, bad_input};
 
@@ -42,29 +41,18 @@ pub fn run(args: Args) -> ExitCode {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
-    let mission_id = loaded.slices.mission_id.clone();
-    let peers = eamos_exec::runner::peers(&loaded.slices);
-    // Named as no peer is, it connects to every peer's endpoints (the
-    // ground station's too) or to the fleet's routers.
-    let options = loaded.fleet.zenoh_options(
-        &mission_id,
-        &peers,
-        eamos_exec::transport::observe::OBSERVER,
-    );
     runtime.block_on(async {
         let monitor = match super::monitor::start(args.listen, &loaded).await {
             Ok(m) => m,
             Err(e) => return bad_input(&e),
         };
-        let sink: Arc<dyn eamos_exec::event::Sink> = Arc::new(monitor.feed.clone());
-        let observer =
-            match eamos_exec::transport::observe::observe(&mission_id, &options, sink).await {
-                Ok(o) => o,
-                Err(e) => return bad_input(&e.to_string()),
-            };
+        let observer = match super::monitor::observe(&loaded, &monitor.feed).await {
+            Ok(o) => o,
+            Err(e) => return bad_input(&e),
+        };
         eprintln!(
             "watching {} ({}) read-only; Ctrl-C stops",
-            loaded.slices.mission, mission_id
+            loaded.slices.mission, loaded.slices.mission_id
         );
         let _ = tokio::signal::ctrl_c().await;
         observer.close().await;
