@@ -154,6 +154,29 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
         PATIENCE,
         "the closest distance",
     );
+
+    // What the page keeps is bounded however long the flight: ten
+    // thousand more samples and tokens leave the trail, the event list and
+    // the distance plot at their bounds.
+    b.eval(
+        r#"var v = window.eamosView;
+        for (var k = 0; k < 10000; k++) {
+          v.update({time: 1000 + k, drone: "Drone1", event: "telemetry",
+                    position: {x: k % 7, y: 0, z: 2}, altitude: 2, battery: 50});
+          v.update({time: 1000 + k, drone: "Drone1", event: "bridge_received",
+                    bridge: 0, from: "GCS", colour: [], seq: k});
+        }"#,
+    );
+    let kept = b.eval(
+        "return [document.querySelector('#plan .trail[data-drone=\"0\"]').points.numberOfItems, \
+         document.querySelectorAll('#events li').length, \
+         document.querySelector('#closest .closest-line').points.numberOfItems];",
+    );
+    assert_eq!(
+        kept,
+        serde_json::json!([300, 200, 600]),
+        "trail, events, plot"
+    );
 }
 
 /// Starts `eamos` with `args`, its output dropped.

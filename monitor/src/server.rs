@@ -110,3 +110,76 @@ async fn forward(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use eamos_exec::event::{Event, Kind, Sink};
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+    /// One HTTP/1.1 request on the loopback; the response as it reads
+    /// within `limit` (an event stream never ends by itself).
+    async fn ask(addr: SocketAddr, method: &str, path: &str, until: &str) -> String {
+        let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
+        let req = format!(
+            "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+        );
+        s.write_all(req.as_bytes()).await.unwrap();
+        let mut got = Vec::new();
+        let mut buf = [0u8; 4096];
+        let read = async {
+            loop {
+                let n = s.read(&mut buf).await.unwrap_or(0);
+                if n == 0 {
+                    break;
+                }
+                got.extend_from_slice(&buf[..n]);
+                if String::from_utf8_lossy(&got).contains(until) {
+                    break;
+                }
+            }
+        };
+        let _ = tokio::time::timeout(Duration::from_secs(20), read).await;
+        String::from_utf8_lossy(&got).into_owned()
+    }
+
+    #[tokio::test]
+    async fn it_serves_the_page_and_the_events_and_takes_no_command() {
+        let monitor = bind("127.0.0.1:0".parse().unwrap()).await.unwrap();
+        let addr = monitor.local_addr().unwrap();
+        assert!(addr.ip().is_loopback());
+        let feed = Feed::new();
+        feed.event(&Event {
+            time: 1.0,
+            drone: "GCS".into(),
+            kind: Kind::PeerLost {
+                peer: "Drone2".into(),
+            },
+        });
+        let stop = CancellationToken::new();
+        let server = tokio::spawn(serve(monitor, "<p>page</p>".into(), feed, stop.clone()));
+
+        let page = ask(addr, "GET", "/", "</p>").await;
+        assert!(page.starts_with("HTTP/1.1 200"), "{page}");
+        assert!(page.contains("<p>page</p>"));
+        // A page that connects late is handed what happened before.
+        let events = ask(addr, "GET", "/events", "peer_lost").await;
+        assert!(events.contains("text/event-stream"), "{events}");
+        assert!(
+            events.contains(
+                r#"data: {"time":1.0,"drone":"GCS","event":"peer_lost","peer":"Drone2"}"#
+            ),
+            "{events}"
+        );
+        // Nothing it serves takes a command.
+        for (method, path) in [("POST", "/"), ("POST", "/events"), ("POST", "/abort")] {
+            let answer = ask(addr, method, path, "\r\n\r\n").await;
+            assert!(
+                answer.starts_with("HTTP/1.1 405") || answer.starts_with("HTTP/1.1 404"),
+                "{method} {path}: {answer}"
+            );
+        }
+        stop.cancel();
+        server.await.unwrap();
+    }
+}
