@@ -71,7 +71,7 @@ pub struct Args {
     /// 127.0.0.1): the ground station's events, and each drone's position
     /// and liveness heard on the mission's network. The drones never wait
     /// for it, and it serves nothing that commands them.
-    #[arg(long, value_name = "ADDR", value_parser = super::monitor::parse_addr)]
+    #[arg(long, value_name = "ADDR", value_parser = super::live::parse_addr)]
     pub monitor: Option<std::net::SocketAddr>,
 }
 
@@ -109,8 +109,8 @@ pub fn run(args: Args) -> ExitCode {
     // Bound before anything is sent: a taken port stops the deploy here.
     let monitor = match args.monitor {
         Some(addr) => match runtime.block_on(async {
-            let m = super::monitor::start(addr, &loaded).await?;
-            let observer = super::monitor::observe(&loaded, &m.feed).await?;
+            let m = super::live::start(addr, &loaded).await?;
+            let observer = super::live::observe(&loaded, &m.feed).await?;
             Ok::<_, String>((m, observer))
         }) {
             Ok(m) => Some(m),

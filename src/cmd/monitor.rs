@@ -1,74 +1,63 @@
-//! The live monitor, as the commands that fly start it (`eamos run
-//! --monitor ADDR`): the mission's report page served on ADDR (the
-//! loopback unless the address says otherwise) and fed with the run's
-//! events. The drones never wait for it: it is one more sink of their
-//! events, and it serves nothing that commands a drone.
+//! `eamos monitor MISSION --fleet FLEET`: the live monitor of a mission
+//! flown by separate processes (`eamos run --drone`, `eamos agent`),
+//! joining its zenoh network as a read-only observer: it hears each
+//! drone's telemetry and which peers are up, and shows them on the
+//! mission's page. It declares nothing the peers wait for, publishes
+//! nothing, and the mission flies the same without it. Exit status: 0
+//! stopped (Ctrl-C), 2 bad input.
 
-use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
 
-use eamos_monitor::Feed;
-use tokio_util::sync::CancellationToken;
+use super::mission::{self, bad_input};
 
-use super::mission::Mission;
+/// Watch a running mission live: its page, fed from its zenoh network.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mission (`.go`), as its peers fly it.
+    pub mission: PathBuf,
+    /// The fleet file its peers fly with (the mission's identity and the
+    /// peers' endpoints come from both).
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
+    /// Where to serve the page (`HOST:PORT`, or a port alone for
+    /// 127.0.0.1).
+    #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080",
+          value_parser = super::live::parse_addr)]
+    pub listen: SocketAddr,
+}
 
-/// `--monitor`'s value: `HOST:PORT`, or a port alone for the loopback.
-pub fn parse_addr(s: &str) -> Result<SocketAddr, String> {
-    if let Ok(port) = s.parse::<u16>() {
-        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
-    }
-    s.parse::<SocketAddr>().map_err(|_| {
-        format!("`{s}` is not an address to listen on: give HOST:PORT (127.0.0.1:8080) or a port")
+pub fn run(args: Args) -> ExitCode {
+    let colour = false;
+    let loaded = match mission::load(&args.mission, args.fleet.as_deref(), colour) {
+        Ok(m) => m,
+        Err(status) => return status,
+    };
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    runtime.block_on(async {
+        let monitor = match super::live::start(args.listen, &loaded).await {
+            Ok(m) => m,
+            Err(e) => return bad_input(&e),
+        };
+        let observer = match super::live::observe(&loaded, &monitor.feed).await {
+            Ok(o) => o,
+            Err(e) => return bad_input(&e),
+        };
+        eprintln!(
+            "watching {} ({}) read-only; Ctrl-C stops",
+            loaded.slices.mission, loaded.slices.mission_id
+        );
+        let _ = tokio::signal::ctrl_c().await;
+        observer.close().await;
+        monitor.stop.cancel();
+        let _ = monitor.task.await;
+        ExitCode::SUCCESS
     })
-}
-
-/// A monitor started: feed it the run's events; it serves until `stop`.
-pub struct Running {
-    pub feed: Feed,
-    pub stop: CancellationToken,
-    pub task: tokio::task::JoinHandle<()>,
-}
-
-/// Binds `addr`, then serves `mission`'s report page and the events fed
-/// to it. A taken or bad address is an error before anything flies.
-pub async fn start(addr: SocketAddr, mission: &Mission) -> Result<Running, String> {
-    let monitor = eamos_monitor::bind(addr).await?;
-    let (model, _) = super::view::model_of(
-        &mission.source,
-        &mission.net,
-        &mission.profiles,
-        &mission.fleet,
-        false,
-    );
-    let page = eamos_view::page(&model);
-    let shown = monitor.local_addr().unwrap_or(addr);
-    eprintln!("monitor: http://{shown}/");
-    let feed = Feed::new();
-    let stop = CancellationToken::new();
-    let task = tokio::spawn(eamos_monitor::serve(
-        monitor,
-        page,
-        feed.clone(),
-        stop.clone(),
-    ));
-    Ok(Running { feed, stop, task })
-}
-
-/// Joins `mission`'s zenoh network as a read-only observer feeding
-/// `feed`: each drone's telemetry and which peers are up (see
-/// `eamos_exec::transport::observe`).
-pub async fn observe(
-    mission: &Mission,
-    feed: &Feed,
-) -> Result<eamos_exec::transport::observe::Observer, String> {
-    let id = &mission.slices.mission_id;
-    let peers = eamos_exec::runner::peers(&mission.slices);
-    // Named as no peer is, it connects to every peer's endpoints (the
-    // ground station's too) or to the fleet's routers.
-    let options = mission
-        .fleet
-        .zenoh_options(id, &peers, eamos_exec::transport::observe::OBSERVER);
-    let sink: std::sync::Arc<dyn eamos_exec::event::Sink> = std::sync::Arc::new(feed.clone());
-    eamos_exec::transport::observe::observe(id, &options, sink)
-        .await
-        .map_err(|e| e.to_string())
 }

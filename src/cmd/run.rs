@@ -87,7 +87,7 @@ pub struct Args {
     /// 127.0.0.1): the mission's report page, its drones moving, their
     /// actions, markings and lost peers as they happen. The drones never
     /// wait for it, and it serves nothing that commands them.
-    #[arg(long, value_name = "ADDR", value_parser = super::monitor::parse_addr)]
+    #[arg(long, value_name = "ADDR", value_parser = super::live::parse_addr)]
     pub monitor: Option<std::net::SocketAddr>,
 }
 
@@ -126,7 +126,7 @@ pub fn run(args: Args) -> ExitCode {
     };
     // Bound before anything flies: a taken port stops the run here.
     let monitor = match args.monitor {
-        Some(addr) => match runtime.block_on(super::monitor::start(addr, &loaded)) {
+        Some(addr) => match runtime.block_on(super::live::start(addr, &loaded)) {
             Ok(m) => Some(m),
             Err(e) => return bad_input(&e),
         },
