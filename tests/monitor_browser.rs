@@ -234,6 +234,7 @@ fn eamos_monitor_watches_separate_processes_and_shows_a_killed_drone_lost() {
         "three drones' markers, from their telemetry on zenoh",
     );
     assert_eq!(b.count("#drones-live tr.lost"), 0, "nobody is lost yet");
+    assert_eq!(b.count("#abort"), 0, "no abort without the ground key");
 
     // Drone2's process dies: its liveliness token goes, and the page says so.
     let mut drone2 = peers.remove(1);
@@ -247,4 +248,85 @@ fn eamos_monitor_watches_separate_processes_and_shows_a_killed_drone_lost() {
     assert_eq!(b.count("#drones-live tr.lost"), 1, "only Drone2 is lost");
     assert!(b.count("#events li.lost") >= 1);
     screenshot(&b, Some("#live"), "monitor-lost.png");
+}
+
+fn count_in_log(dir: &std::path::Path, peer: &str, event: &str) -> usize {
+    std::fs::read_to_string(dir.join(format!("{peer}.mission.jsonl")))
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| l.contains(&format!("\"event\":\"{event}\"")))
+        .count()
+}
+
+#[test]
+fn with_the_ground_key_the_monitors_abort_button_aborts_the_flight() {
+    let dir = out_dir().join("abort");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let keygen = Command::new(env!("CARGO_BIN_EXE_eamos"))
+        .args(["keygen", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(keygen.status.success(), "{keygen:?}");
+    // The drones obey only aborts sealed by this key.
+    let fleet = dir.join("fleet.toml");
+    std::fs::write(&fleet, "[keys]\ngcs = \"gcs.pub\"\n").unwrap();
+    let (fleet, key, logs) = (
+        fleet.to_str().unwrap().to_string(),
+        dir.join("gcs.key").to_str().unwrap().to_string(),
+        dir.join("logs").to_str().unwrap().to_string(),
+    );
+    let mission = repo("../shared/missions/paper/experiment_c.go");
+    let mission = mission.to_str().unwrap();
+    let (_monitor, url) = start_monitored(&[
+        "monitor",
+        mission,
+        "--fleet",
+        &fleet,
+        "--listen",
+        "127.0.0.1:0",
+        "--key",
+        &key,
+    ]);
+    let mut peers = Vec::new();
+    for role in [
+        vec!["--drone", "Drone1"],
+        vec!["--drone", "Drone2"],
+        vec!["--drone", "Drone3"],
+        vec!["--gcs"],
+    ] {
+        let mut args = vec![
+            "run", mission, "--fleet", &fleet, "--speed", "0.25", "--out", &logs,
+        ];
+        args.extend(role);
+        peers.push(start(&args));
+    }
+    let b = Browser::start(1300, 1400);
+    b.navigate(&url);
+    b.wait_long(
+        "return document.querySelectorAll('#plan .live-drone').length === 3;",
+        PATIENCE,
+        "three drones' markers",
+    );
+    assert_eq!(b.count("#abort"), 1, "the abort button, with the key");
+    // The crew confirms.
+    b.eval("window.confirm = function () { return true; };");
+    b.click("#abort");
+    b.wait_long(
+        "return document.getElementById('abort-result').textContent.indexOf('abort sent') >= 0;",
+        PATIENCE,
+        "the abort sent",
+    );
+    screenshot(&b, Some("#live"), "monitor-abort.png");
+    let logs = PathBuf::from(logs);
+    let started = std::time::Instant::now();
+    while count_in_log(&logs, "Drone1", "abort_received") == 0 {
+        assert!(
+            started.elapsed() < PATIENCE,
+            "Drone1 never obeyed the monitor's abort"
+        );
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert_eq!(count_in_log(&logs, "Drone1", "abort_refused"), 0);
 }

@@ -16,10 +16,12 @@
 //! each event to a bounded broadcast; a browser too slow to keep up loses
 //! telemetry samples, never holds up the executor, and catches up from the
 //! latest state. The server listens on the loopback unless told otherwise,
-//! and it has no route that commands a drone.
+//! and it has no route that commands a drone unless its process holds the
+//! ground station's key: then `POST /abort` (behind a confirmation on the
+//! page, and a header no other site can send) aborts as `eamos abort` does.
 
 mod feed;
 mod server;
 
 pub use feed::Feed;
-pub use server::{bind, serve, Monitor};
+pub use server::{bind, serve, Abort, Monitor, CONFIRM_HEADER};

@@ -1,16 +1,19 @@
 //! The HTTP side: the page at `/`, the events at `/events` as server-sent
-//! events, nothing else (no route takes a command).
+//! events, and `POST /abort` only when the process holds the ground
+//! station's key (`eamos monitor --key`): nothing else takes a command.
 
 use std::convert::Infallible;
+use std::future::Future;
 use std::net::SocketAddr;
+use std::pin::Pin;
 use std::sync::Arc;
 use std::time::Duration;
 
 use axum::extract::State;
-use axum::http::header;
+use axum::http::{header, HeaderMap, StatusCode};
 use axum::response::sse::{Event as SseEvent, KeepAlive, Sse};
 use axum::response::{Html, IntoResponse};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::Router;
 use tokio::net::TcpListener;
 use tokio::sync::{broadcast, mpsc};
@@ -45,21 +48,48 @@ impl Monitor {
     }
 }
 
+/// Aborts the mission, signed with the ground station's key (as `eamos
+/// abort` does); says what came of it.
+pub type Abort =
+    Arc<dyn Fn() -> Pin<Box<dyn Future<Output = Result<String, String>> + Send>> + Send + Sync>;
+
+/// The header a page's abort must carry: a browser sends no custom header
+/// across origins without asking first (which this server never allows),
+/// so another site open in the same browser cannot post an abort.
+pub const CONFIRM_HEADER: &str = "x-eamos-confirm";
+
 #[derive(Clone)]
 struct Served {
     page: Arc<str>,
     feed: Feed,
+    abort: Option<Abort>,
 }
 
-/// Serves `page` and `feed` until `stop`.
-pub async fn serve(monitor: Monitor, page: String, feed: Feed, stop: CancellationToken) {
-    let app = Router::new()
+/// Serves `page` and `feed` until `stop`; with `abort`, an abort button
+/// on the page and `POST /abort` behind it.
+pub async fn serve(
+    monitor: Monitor,
+    page: String,
+    feed: Feed,
+    abort: Option<Abort>,
+    stop: CancellationToken,
+) {
+    // The page draws the button only when the route exists.
+    let page = match abort {
+        Some(_) => page.replacen("<body>", "<body data-abort=\"abort\">", 1),
+        None => page,
+    };
+    let mut app = Router::new()
         .route("/", get(page_of))
-        .route("/events", get(events))
-        .with_state(Served {
-            page: page.into(),
-            feed,
-        });
+        .route("/events", get(events));
+    if abort.is_some() {
+        app = app.route("/abort", post(abort_mission));
+    }
+    let app = app.with_state(Served {
+        page: page.into(),
+        feed,
+        abort,
+    });
     let _ = axum::serve(monitor.listener, app)
         .with_graceful_shutdown(async move { stop.cancelled().await })
         .await;
@@ -70,6 +100,22 @@ async fn page_of(State(s): State<Served>) -> impl IntoResponse {
         [(header::CACHE_CONTROL, "no-store")],
         Html(s.page.to_string()),
     )
+}
+
+async fn abort_mission(State(s): State<Served>, headers: HeaderMap) -> (StatusCode, String) {
+    if headers.get(CONFIRM_HEADER).and_then(|v| v.to_str().ok()) != Some("abort") {
+        return (
+            StatusCode::FORBIDDEN,
+            format!("an abort must carry `{CONFIRM_HEADER}: abort`"),
+        );
+    }
+    let Some(abort) = s.abort else {
+        return (StatusCode::NOT_FOUND, String::new());
+    };
+    match abort().await {
+        Ok(said) => (StatusCode::OK, said),
+        Err(e) => (StatusCode::BAD_GATEWAY, e),
+    }
 }
 
 async fn events(
@@ -120,9 +166,19 @@ mod tests {
     /// One HTTP/1.1 request on the loopback; the response as it reads
     /// within `limit` (an event stream never ends by itself).
     async fn ask(addr: SocketAddr, method: &str, path: &str, until: &str) -> String {
+        ask_with(addr, method, path, "", until).await
+    }
+
+    async fn ask_with(
+        addr: SocketAddr,
+        method: &str,
+        path: &str,
+        header: &str,
+        until: &str,
+    ) -> String {
         let mut s = tokio::net::TcpStream::connect(addr).await.unwrap();
         let req = format!(
-            "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n"
+            "{method} {path} HTTP/1.1\r\nHost: {addr}\r\n{header}Content-Length: 0\r\nConnection: close\r\n\r\n"
         );
         s.write_all(req.as_bytes()).await.unwrap();
         let mut got = Vec::new();
@@ -157,7 +213,13 @@ mod tests {
             },
         });
         let stop = CancellationToken::new();
-        let server = tokio::spawn(serve(monitor, "<p>page</p>".into(), feed, stop.clone()));
+        let server = tokio::spawn(serve(
+            monitor,
+            "<p>page</p>".into(),
+            feed,
+            None,
+            stop.clone(),
+        ));
 
         let page = ask(addr, "GET", "/", "</p>").await;
         assert!(page.starts_with("HTTP/1.1 200"), "{page}");
@@ -179,6 +241,44 @@ mod tests {
                 "{method} {path}: {answer}"
             );
         }
+        stop.cancel();
+        server.await.unwrap();
+    }
+
+    #[tokio::test]
+    async fn with_the_key_an_abort_needs_its_confirmation_header() {
+        let monitor = bind("127.0.0.1:0".parse().unwrap()).await.unwrap();
+        let addr = monitor.local_addr().unwrap();
+        let calls = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+        let counted = calls.clone();
+        let abort: Abort = Arc::new(move || {
+            counted.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            Box::pin(async { Ok("abort sent".to_string()) })
+        });
+        let stop = CancellationToken::new();
+        let server = tokio::spawn(serve(
+            monitor,
+            "<body><p>page</p>".into(),
+            Feed::new(),
+            Some(abort),
+            stop.clone(),
+        ));
+        let page = ask(addr, "GET", "/", "</p>").await;
+        assert!(page.contains(r#"<body data-abort="abort">"#), "{page}");
+        // A plain post (a form on another site) is refused.
+        let refused = ask(addr, "POST", "/abort", "\r\n\r\n").await;
+        assert!(refused.starts_with("HTTP/1.1 403"), "{refused}");
+        assert_eq!(calls.load(std::sync::atomic::Ordering::SeqCst), 0);
+        let done = ask_with(
+            addr,
+            "POST",
+            "/abort",
+            "X-Eamos-Confirm: abort\r\n",
+            "abort sent",
+        )
+        .await;
+        assert!(done.starts_with("HTTP/1.1 200"), "{done}");
+        assert_eq!(calls.load(std::sync::atomic::Ordering::SeqCst), 1);
         stop.cancel();
         server.await.unwrap();
     }

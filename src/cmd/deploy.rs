@@ -109,7 +109,7 @@ pub fn run(args: Args) -> ExitCode {
     // Bound before anything is sent: a taken port stops the deploy here.
     let monitor = match args.monitor {
         Some(addr) => match runtime.block_on(async {
-            let m = super::live::start(addr, &loaded).await?;
+            let m = super::live::start(addr, &loaded, None).await?;
             let observer = super::live::observe(&loaded, &m.feed).await?;
             Ok::<_, String>((m, observer))
         }) {

@@ -30,8 +30,13 @@ pub struct Running {
 }
 
 /// Binds `addr`, then serves `mission`'s report page and the events fed
-/// to it. A taken or bad address is an error before anything flies.
-pub async fn start(addr: SocketAddr, mission: &Mission) -> Result<Running, String> {
+/// to it (and, with `abort`, the page's abort button). A taken or bad
+/// address is an error before anything flies.
+pub async fn start(
+    addr: SocketAddr,
+    mission: &Mission,
+    abort: Option<eamos_monitor::Abort>,
+) -> Result<Running, String> {
     let monitor = eamos_monitor::bind(addr).await?;
     let (model, _) = super::view::model_of(
         &mission.source,
@@ -49,6 +54,7 @@ pub async fn start(addr: SocketAddr, mission: &Mission) -> Result<Running, Strin
         monitor,
         page,
         feed.clone(),
+        abort,
         stop.clone(),
     ));
     Ok(Running { feed, stop, task })
@@ -72,4 +78,51 @@ pub async fn observe(
     eamos_exec::transport::observe::observe(id, &options, sink)
         .await
         .map_err(|e| e.to_string())
+}
+
+/// The page's abort: `mission` aborted as `eamos abort` aborts it, from
+/// this process, the command sealed with `key` (the ground station's).
+pub fn abort_with(mission: &Mission, key: eamos_seal::GroundKey) -> eamos_monitor::Abort {
+    let sealer = eamos_exec::abort::sealer(std::sync::Arc::new(key));
+    let id = mission.slices.mission_id.clone();
+    let name = mission.slices.mission.clone();
+    let peers = eamos_exec::runner::peers(&mission.slices);
+    // Connect to every peer's endpoints, listen on none, as `eamos abort`.
+    let mut options = mission
+        .fleet
+        .zenoh_options(&id, &peers, eamos_exec::transport::GCS);
+    options.connect = peers
+        .iter()
+        .flat_map(|p| mission.fleet.listen(&id, &peers, p))
+        .collect();
+    options.listen = Vec::new();
+    std::sync::Arc::new(move || {
+        let (sealer, id, name, peers, options) = (
+            sealer.clone(),
+            id.clone(),
+            name.clone(),
+            peers.clone(),
+            options.clone(),
+        );
+        Box::pin(async move {
+            let me = format!("monitor-abort-{}", std::process::id());
+            let command = eamos_exec::abort::AbortCommand::new(&id, &format!("the monitor ({me})"));
+            let sent = eamos_exec::abort::broadcast(
+                &command,
+                &me,
+                &peers,
+                &options,
+                Some(&sealer),
+                std::time::Duration::from_secs(10),
+            )
+            .await
+            .map_err(|e| format!("cannot join the mission's network: {e}"))?;
+            Ok(format!(
+                "{name}: abort sent to {} peers ({} up), {} not acknowledged",
+                sent.sent_to.len(),
+                sent.reached.len(),
+                sent.unacknowledged
+            ))
+        })
+    })
 }

@@ -26,6 +26,11 @@ pub struct Args {
     #[arg(long, value_name = "ADDR", default_value = "127.0.0.1:8080",
           value_parser = super::live::parse_addr)]
     pub listen: SocketAddr,
+    /// The ground station's secret key: with it (and only with it) the
+    /// page has an abort button, behind a confirmation, that aborts the
+    /// mission as `eamos abort --key` does.
+    #[arg(long, value_name = "GCS.key")]
+    pub key: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -33,6 +38,14 @@ pub fn run(args: Args) -> ExitCode {
     let loaded = match mission::load(&args.mission, args.fleet.as_deref(), colour) {
         Ok(m) => m,
         Err(status) => return status,
+    };
+    let abort = match &args.key {
+        Some(path) => match eamos_rollout::ground_key(&loaded.fleet, Some(path)) {
+            Ok(Some(key)) => Some(super::live::abort_with(&loaded, key)),
+            Ok(None) => None,
+            Err(e) => return bad_input(&format!("cannot sign an abort: {e}")),
+        },
+        None => None,
     };
     let runtime = match tokio::runtime::Builder::new_multi_thread()
         .enable_all()
@@ -42,7 +55,7 @@ pub fn run(args: Args) -> ExitCode {
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
     runtime.block_on(async {
-        let monitor = match super::live::start(args.listen, &loaded).await {
+        let monitor = match super::live::start(args.listen, &loaded, abort).await {
             Ok(m) => m,
             Err(e) => return bad_input(&e),
         };

@@ -126,7 +126,7 @@ pub fn run(args: Args) -> ExitCode {
     };
     // Bound before anything flies: a taken port stops the run here.
     let monitor = match args.monitor {
-        Some(addr) => match runtime.block_on(super::live::start(addr, &loaded)) {
+        Some(addr) => match runtime.block_on(super::live::start(addr, &loaded, None)) {
             Ok(m) => Some(m),
             Err(e) => return bad_input(&e),
         },

@@ -3,7 +3,8 @@
 // altitude, battery, lost or stuck), a bounded trail behind each marker,
 // the list of signals, awaits, tokens between peers and peers lost as
 // they happen, and the closest distance between two drones over mission
-// time.
+// time; and, only when the monitor holds the ground station's key, an
+// abort button behind a confirmation.
 //
 // `EamosLive.attach(view)` wraps the view's `update(event)` so that the
 // same events (the executor's own, as its log writes them) also feed the
@@ -35,6 +36,8 @@ var EamosLive = (function () {
     root.insertBefore(sec, space);
     el(null, "h2", {}, sec, "Live");
     var status = el(null, "p", { id: "live-status" }, sec, "live");
+    // Only a monitor holding the ground station's key serves an abort.
+    if (document.body.dataset.abort) abortButton(sec, document.body.dataset.abort);
     var table = el(null, "table", { id: "drones-live" }, sec);
     var head = el(null, "tr", {}, table);
     ["drone", "action", "altitude", "battery", "state"].forEach(function (h) { el(null, "th", {}, head, h); });
@@ -63,6 +66,25 @@ var EamosLive = (function () {
       events: events, positions: {}, trails: {}, series: [], lastClosest: -Infinity
     };
     return view.live;
+  }
+
+  // Behind a confirmation; the header tells the server that this page,
+  // not a form of another site, asks.
+  function abortButton(parent, url) {
+    var p = el(null, "p", {}, parent);
+    var button = el(null, "button", { id: "abort", type: "button" }, p, "Abort the mission…");
+    var said = el(null, "span", { id: "abort-result" }, p);
+    button.onclick = function () {
+      if (!window.confirm("Abort the mission? Every drone cancels what it does and goes to its failsafe.")) return;
+      button.disabled = true;
+      said.textContent = " sending the abort…";
+      fetch(url, { method: "POST", headers: { "X-Eamos-Confirm": "abort" } })
+        .then(function (r) {
+          return r.text().then(function (t) { said.textContent = " " + (r.ok ? "" : "refused: ") + t; });
+        })
+        .catch(function (e) { said.textContent = " failed: " + e; })
+        .then(function () { button.disabled = false; });
+    };
   }
 
   function note(live, event, text, cls) {
