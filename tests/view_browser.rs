@@ -9,6 +9,7 @@
 //! `EAMOS_UPDATE_SCREENSHOTS` is set. Without Chromium and chromedriver
 //! these tests fail, saying what to install (scripts/test installs both).
 
+#[allow(dead_code)] // Each test uses its own few of the client's commands.
 mod browser;
 
 use std::path::{Path, PathBuf};

@@ -5,7 +5,7 @@
 //! of its drones, and the roll-out agent what it was sent and what it did
 //! with it. Every consumer is a sink: the per-drone JSON-lines mission log
 //! ([`crate::log`]), the terminal display of `eamos run` and `eamos agent`,
-//! the plot's paths, a channel for tests and the monitor to come. A new
+//! the plot's paths, a channel for tests, the live monitor's feed. A new
 //! consumer is a new sink, never a new vocabulary; the producers never
 //! format a line for a person.
 //!

@@ -67,6 +67,12 @@ pub struct Args {
     /// printed either way.
     #[arg(long)]
     pub allow_findings: bool,
+    /// Serve the live monitor on ADDR (`HOST:PORT`, or a port alone for
+    /// 127.0.0.1): the ground station's events, and each drone's position
+    /// and liveness heard on the mission's network. The drones never wait
+    /// for it, and it serves nothing that commands them.
+    #[arg(long, value_name = "ADDR", value_parser = super::live::parse_addr)]
+    pub monitor: Option<std::net::SocketAddr>,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -93,6 +99,25 @@ pub fn run(args: Args) -> ExitCode {
         Ok(m) => m,
         Err(status) => return status,
     };
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    // Bound before anything is sent: a taken port stops the deploy here.
+    let monitor = match args.monitor {
+        Some(addr) => match runtime.block_on(async {
+            let m = super::live::start(addr, &loaded, None).await?;
+            let observer = super::live::observe(&loaded, &m.feed).await?;
+            Ok::<_, String>((m, observer))
+        }) {
+            Ok(m) => Some(m),
+            Err(e) => return bad_input(&e),
+        },
+        None => None,
+    };
     let Mission {
         source,
         profiles,
@@ -108,20 +133,16 @@ pub fn run(args: Args) -> ExitCode {
         .out
         .clone()
         .unwrap_or_else(|| Path::new("eamos-run").join(&slices.mission));
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(r) => r,
-        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
-    };
-    let mut run = RunOptions {
+    let run = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
         seed: args.seed,
         out,
         source: Some(Arc::new(source)),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
+        events: monitor
+            .as_ref()
+            .map(|(m, _)| Arc::new(m.feed.clone()) as Arc<dyn eamos_exec::event::Sink>),
         ..RunOptions::default()
     };
     println!(
@@ -132,78 +153,97 @@ pub fn run(args: Args) -> ExitCode {
             None => "unsigned: no ground station key".to_string(),
         }
     );
-    runtime.block_on(async {
-        let rollout = match RollOut::open(&fleet, key).await {
-            Ok(r) => r,
-            Err(e) => return bad_input(&e.to_string()),
-        };
-        let drones = slices.distributed.drones.clone();
-        let missing = rollout
-            .wait_for_agents(&drones, Duration::from_secs_f64(args.wait))
-            .await;
-        if !missing.is_empty() {
-            for d in &missing {
-                println!("{d}: refused: no agent showed up within {} s", args.wait);
-            }
-            eprintln!(
-                "error: mission not started: no agent for {}",
-                missing.join(", ")
-            );
-            return ExitCode::from(1);
-        }
-        let delivered = rollout.deliver(&slices).await;
-        for (d, what) in &delivered {
-            println!("{d}: {what}");
-        }
-        let refused = delivered
-            .values()
-            .filter(|d| matches!(d, Delivery::Refused { .. }))
-            .count();
-        if refused > 0 {
-            eprintln!("error: mission not started: {refused} drone(s) refused their slice");
-            return ExitCode::from(1);
-        }
-        if args.no_start {
-            return ExitCode::SUCCESS;
-        }
-        let answers = rollout.start(&slices, &run).await;
-        // Stopped (Ctrl-C), the ground station tells every drone to abort
-        // with a command signed like `eamos abort`'s.
-        run.abort_sealer = rollout.abort_sealer();
-        let mut refused = 0;
-        for (d, a) in &answers {
-            if let Answer::Refused { reason } = a {
-                println!("{d}: refused the start: {reason}");
-                refused += 1;
-            }
-        }
-        rollout.close().await;
-        if refused > 0 {
-            eprintln!("error: {refused} drone(s) refused to start");
-            return ExitCode::from(1);
-        }
-        println!("started {}", slices.mission_id);
-        // From here on Ctrl-C stops the ground station's part, which tells
-        // every drone to abort; before, nothing flies and it just exits.
-        let stop = run.stop.clone();
-        tokio::spawn(async move {
-            if tokio::signal::ctrl_c().await.is_ok() {
-                eprintln!("stopping: every drone goes to its failsafe");
-                stop.cancel();
-            }
+    let status = runtime.block_on(deploy(&args, &slices, &fleet, &profiles, key, run));
+    if let Some((m, observer)) = monitor {
+        runtime.block_on(async {
+            observer.close().await;
+            m.stop.cancel();
+            let _ = m.task.await;
         });
-        match rollout::fly_ground_station(&slices, &fleet, &profiles, &run).await {
-            Err(e) => bad_input(&e.to_string()),
-            Ok(report) => {
-                let outcome = report.reports.first().map(|r| r.outcome.clone());
-                println!("mission {}: {:?}", slices.mission, outcome);
-                if matches!(outcome, Some(Outcome::Completed)) {
-                    println!("mission {} completed", slices.mission);
-                    ExitCode::SUCCESS
-                } else {
-                    ExitCode::from(1)
-                }
+    }
+    status
+}
+
+/// Delivers the slices, starts the mission and flies the ground station's
+/// part.
+async fn deploy(
+    args: &Args,
+    slices: &eamos_slicer::Slices,
+    fleet: &eamos_fleet::Fleet,
+    profiles: &eamos_profile::ProfileTable,
+    key: Option<eamos_seal::GroundKey>,
+    mut run: RunOptions,
+) -> ExitCode {
+    let rollout = match RollOut::open(fleet, key).await {
+        Ok(r) => r,
+        Err(e) => return bad_input(&e.to_string()),
+    };
+    let drones = slices.distributed.drones.clone();
+    let missing = rollout
+        .wait_for_agents(&drones, Duration::from_secs_f64(args.wait))
+        .await;
+    if !missing.is_empty() {
+        for d in &missing {
+            println!("{d}: refused: no agent showed up within {} s", args.wait);
+        }
+        eprintln!(
+            "error: mission not started: no agent for {}",
+            missing.join(", ")
+        );
+        return ExitCode::from(1);
+    }
+    let delivered = rollout.deliver(slices).await;
+    for (d, what) in &delivered {
+        println!("{d}: {what}");
+    }
+    let refused = delivered
+        .values()
+        .filter(|d| matches!(d, Delivery::Refused { .. }))
+        .count();
+    if refused > 0 {
+        eprintln!("error: mission not started: {refused} drone(s) refused their slice");
+        return ExitCode::from(1);
+    }
+    if args.no_start {
+        return ExitCode::SUCCESS;
+    }
+    let answers = rollout.start(slices, &run).await;
+    // Stopped (Ctrl-C), the ground station tells every drone to abort
+    // with a command signed like `eamos abort`'s.
+    run.abort_sealer = rollout.abort_sealer();
+    let mut refused = 0;
+    for (d, a) in &answers {
+        if let Answer::Refused { reason } = a {
+            println!("{d}: refused the start: {reason}");
+            refused += 1;
+        }
+    }
+    rollout.close().await;
+    if refused > 0 {
+        eprintln!("error: {refused} drone(s) refused to start");
+        return ExitCode::from(1);
+    }
+    println!("started {}", slices.mission_id);
+    // From here on Ctrl-C stops the ground station's part, which tells
+    // every drone to abort; before, nothing flies and it just exits.
+    let stop = run.stop.clone();
+    tokio::spawn(async move {
+        if tokio::signal::ctrl_c().await.is_ok() {
+            eprintln!("stopping: every drone goes to its failsafe");
+            stop.cancel();
+        }
+    });
+    match rollout::fly_ground_station(slices, fleet, profiles, &run).await {
+        Err(e) => bad_input(&e.to_string()),
+        Ok(report) => {
+            let outcome = report.reports.first().map(|r| r.outcome.clone());
+            println!("mission {}: {:?}", slices.mission, outcome);
+            if matches!(outcome, Some(Outcome::Completed)) {
+                println!("mission {} completed", slices.mission);
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::from(1)
             }
         }
-    })
+    }
 }

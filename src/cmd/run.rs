@@ -83,6 +83,12 @@ pub struct Args {
     /// printed either way.
     #[arg(long)]
     pub allow_findings: bool,
+    /// Serve the live monitor on ADDR (`HOST:PORT`, or a port alone for
+    /// 127.0.0.1): the mission's report page, its drones moving, their
+    /// actions, markings and lost peers as they happen. The drones never
+    /// wait for it, and it serves nothing that commands them.
+    #[arg(long, value_name = "ADDR", value_parser = super::live::parse_addr)]
+    pub monitor: Option<std::net::SocketAddr>,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -110,6 +116,21 @@ pub fn run(args: Args) -> ExitCode {
     ) {
         Ok(m) => m,
         Err(status) => return status,
+    };
+    let runtime = match tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+    {
+        Ok(r) => r,
+        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
+    };
+    // Bound before anything flies: a taken port stops the run here.
+    let monitor = match args.monitor {
+        Some(addr) => match runtime.block_on(super::live::start(addr, &loaded, None)) {
+            Ok(m) => Some(m),
+            Err(e) => return bad_input(&e),
+        },
+        None => None,
     };
     let Mission {
         source,
@@ -154,14 +175,14 @@ pub fn run(args: Args) -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("off")),
         )
         .try_init();
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
-        Ok(r) => r,
-        Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
-    };
     let (events, events_rx) = Channel::new();
+    let events: Arc<dyn eamos_exec::event::Sink> = match &monitor {
+        Some(m) => Arc::new(eamos_exec::event::Tee::new(vec![
+            Arc::new(events),
+            Arc::new(m.feed.clone()),
+        ])),
+        None => Arc::new(events),
+    };
     let options = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
@@ -171,7 +192,7 @@ pub fn run(args: Args) -> ExitCode {
             Transport::Zenoh => TransportKind::Zenoh,
         },
         source: Some(Arc::new(source)),
-        events: Some(Arc::new(events)),
+        events: Some(events),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
         seed: args.seed,
         journal: args.journal.clone(),
@@ -203,6 +224,10 @@ pub fn run(args: Args) -> ExitCode {
         };
         drop(options);
         let _ = display.await;
+        if let Some(m) = monitor {
+            m.stop.cancel();
+            let _ = m.task.await;
+        }
         result
     });
     let report = match result {

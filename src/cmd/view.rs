@@ -65,23 +65,7 @@ pub fn run(args: Args) -> ExitCode {
         },
         None => eamos_fleet::Fleet::default(),
     };
-    let space = super::mission::space(&fleet, &net.drones);
-    let options = eamos_verify::Options {
-        space: Some(space.clone()),
-        progress: eamos_verify::terminal_progress(),
-        ..eamos_verify::Options::default()
-    };
-    let report = eamos_verify::check_net(&net, &profiles, Some(&source.text), &options);
-    let plan = eamos_verify::plan(&net, &profiles, &space);
-    let model = eamos_view::model(&eamos_view::Input {
-        source: &source,
-        net: &net,
-        profiles: &profiles,
-        report: &report,
-        plan: &plan,
-        space: &space,
-        origin: fleet.origin(),
-    });
+    let (model, findings) = model_of(&source, &net, &profiles, &fleet, true);
     let output = args.output.unwrap_or_else(|| {
         let stem = args
             .mission
@@ -95,8 +79,40 @@ pub fn run(args: Args) -> ExitCode {
     eprintln!(
         "{}: {} finding(s) of `eamos check`; report written to {}",
         name,
-        report.findings.len(),
+        findings,
         output.display()
     );
     ExitCode::SUCCESS
+}
+
+/// The report's model of a compiled mission with its fleet, and how many
+/// findings `eamos check` made (the checker runs here, with a progress
+/// line on the terminal when `progress`). The monitor serves the same.
+pub fn model_of(
+    source: &eamos_lang::SourceFile,
+    net: &eamos_petri::net::Net,
+    profiles: &eamos_profile::ProfileTable,
+    fleet: &eamos_fleet::Fleet,
+    progress: bool,
+) -> (eamos_view::Model, usize) {
+    let space = super::mission::space(fleet, &net.drones);
+    let mut options = eamos_verify::Options {
+        space: Some(space.clone()),
+        ..eamos_verify::Options::default()
+    };
+    if progress {
+        options.progress = eamos_verify::terminal_progress();
+    }
+    let report = eamos_verify::check_net(net, profiles, Some(&source.text), &options);
+    let plan = eamos_verify::plan(net, profiles, &space);
+    let model = eamos_view::model(&eamos_view::Input {
+        source,
+        net,
+        profiles,
+        report: &report,
+        plan: &plan,
+        space: &space,
+        origin: fleet.origin(),
+    });
+    (model, report.findings.len())
 }

@@ -113,6 +113,11 @@ impl Browser {
         self.command("POST", "url", json!({ "url": url }));
     }
 
+    /// Opens `url` (a page a test serves, such as the monitor's).
+    pub fn navigate(&self, url: &str) {
+        self.command("POST", "url", json!({ "url": url }));
+    }
+
     /// Runs `script` (a function body: `return ...`) in the page.
     pub fn eval(&self, script: &str) -> Value {
         self.command(
@@ -133,6 +138,19 @@ impl Browser {
                 "still not true after 5 s: {script}"
             );
             std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Waits up to `limit` until `script` returns true (a live page,
+    /// fed by a flight on a loaded machine); panics with `what` if not.
+    pub fn wait_long(&self, script: &str, limit: Duration, what: &str) {
+        let started = Instant::now();
+        while self.eval(script) != Value::Bool(true) {
+            assert!(
+                started.elapsed() < limit,
+                "{what}: still not true after {limit:?}: {script}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
         }
     }
 

@@ -8,6 +8,9 @@ use crate::model::Model;
 const DAGRE: &str = include_str!("../web/vendor/dagre.min.js");
 /// The page's own script: `EamosView.render(root, model)` and `update(event)`.
 const VIEW_JS: &str = include_str!("../web/view.js");
+/// The live half, for the monitor: `EamosLive.attach(view)` and
+/// `connect(view, url)`; a page opened from the disk never connects.
+const LIVE_JS: &str = include_str!("../web/live.js");
 const VIEW_CSS: &str = include_str!("../web/view.css");
 
 /// The report page of `model`.
@@ -40,16 +43,24 @@ pub fn page(model: &Model) -> String {
 {view}
 </script>
 <script>
-window.eamosView = EamosView.render(
+{live}
+</script>
+<script>
+window.eamosView = EamosLive.attach(EamosView.render(
   document.getElementById("eamos-view"),
   JSON.parse(document.getElementById("eamos-model").textContent)
-);
+));
+// Served by the monitor: its events, live. From the disk: nothing.
+if (location.protocol === "http:" || location.protocol === "https:") {{
+  EamosLive.connect(window.eamosView, "events");
+}}
 </script>
 </body>
 </html>
 "#,
         dagre = inline_script(DAGRE),
         view = inline_script(VIEW_JS),
+        live = inline_script(LIVE_JS),
     )
 }
 

@@ -5,11 +5,11 @@
 // live. An event is one of the executor's mission events, as its JSON-lines
 // log writes them (`eamos_exec::event::Event`, one vocabulary for every
 // consumer): `{"drone": "D1", "event": "telemetry", "position": {"x", "y",
-// "z"}}` (metres from the drone's home) moves the drone's marker in the
-// plan and side views; `{"drone": "D1", "event": "marking", "marked":
+// "z"}}` (metres in the fleet frame, as the homes and legs) moves the
+// drone's marker in the plan and side views; `{"drone": "D1", "event": "marking", "marked":
 // [place ids]}` marks the places the drone holds in the graph. Other events
-// are ignored. The static report never calls `update`; a monitor feeding
-// the page with a run's events will.
+// are ignored here (`live.js` reads the rest). The static report never
+// calls `update`; the monitor feeds the page with a run's events.
 //
 // Plain SVG drawn by hand for the plan, side and timeline views; the
 // mission graph is laid out by dagre (inlined before this script).
@@ -408,8 +408,8 @@ var EamosView = (function () {
     var model = view.model;
     var i = model.drones.findIndex(function (d) { return d.name === event.drone; });
     if (event.event === "telemetry" && i >= 0 && event.position) {
-      var home = model.drones[i].home, p = event.position;
-      var at = [home[0] + p.x, home[1] + p.y, p.z];
+      // The fleet frame, as the homes and legs are drawn.
+      var p = event.position, at = [p.x, p.y, p.z];
       [view.plan, view.side].forEach(function (v) {
         var live = v.svg.querySelector("g.live");
         var dot = live.querySelector('[data-drone="' + i + '"]');

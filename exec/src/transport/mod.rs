@@ -23,6 +23,7 @@ use eamos_petri::net::Colour;
 
 pub mod faulty;
 pub mod inproc;
+pub mod observe;
 pub mod reliable;
 pub mod zenoh;
 
