@@ -142,14 +142,16 @@ fn the_page_embeds_everything_and_no_mission_text_can_close_its_script() {
     let tricky = MISSION.replace("package Pair", "// </script><script>alert(1)\npackage Pair");
     let html = page(&build(&tricky));
     assert!(html.starts_with("<!DOCTYPE html>"));
-    // The model, the layout library and the page's script, all inline.
+    // The model, the layout library, the page's script and its live part,
+    // and the call that draws, all inline.
     assert!(html.contains(r#"<script type="application/json" id="eamos-model">"#));
     assert!(html.contains("dagre"));
     assert!(html.contains("EamosView.render("));
+    assert!(html.contains("EamosLive.attach("));
     assert!(!html.contains("</script><script>alert"));
     assert_eq!(
         html.matches("</script>").count(),
-        4,
+        5,
         "one per script element"
     );
     // Nothing fetched: no source attribute, no link, no source map.
