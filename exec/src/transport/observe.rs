@@ -15,7 +15,7 @@ use eamos_mid::Telemetry;
 use zenoh::sample::SampleKind;
 use zenoh::Session;
 
-use super::zenoh::{config, ZenohOptions};
+use super::zenoh::{alive_peer, config, ZenohOptions};
 use super::{TelemetryFrame, TransportError};
 use crate::event::{Event, Kind, Sink};
 
@@ -48,7 +48,7 @@ pub async fn observe(
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
     let last_time = Arc::new(Mutex::new(0.0f64));
-    let prefix = format!("eamos/{mission}/");
+    let mission_owned = mission.to_string();
     let telemetry = {
         let (sink, last_time) = (sink.clone(), last_time.clone());
         session
@@ -81,11 +81,7 @@ pub async fn observe(
         .declare_subscriber(format!("eamos/{mission}/*/alive"))
         .history(true)
         .callback(move |sample| {
-            let k = sample.key_expr().as_str();
-            let Some(peer) = k
-                .strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix("/alive"))
-            else {
+            let Some(peer) = alive_peer(&mission_owned, sample.key_expr().as_str()) else {
                 return;
             };
             let mut seen = seen.lock().unwrap_or_else(|p| p.into_inner());

@@ -148,6 +148,33 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
     Ok(c)
 }
 
+/// Opens the zenoh session of `who` (a peer, or a router): a port already
+/// taken is said as such, since zenoh's own words name its source files
+/// and the crew needs the port.
+async fn open_session(options: &ZenohOptions, who: &str) -> Result<zenoh::Session, TransportError> {
+    zenoh::open(config(options)?).await.map_err(|e| {
+        let e = e.to_string();
+        if e.contains("Address already in use") {
+            TransportError::PortTaken {
+                peer: who.to_string(),
+                endpoints: options.listen.clone(),
+                fleet: None,
+            }
+        } else {
+            TransportError::Open(e)
+        }
+    })
+}
+
+/// The peer whose liveliness token `key` is, in `mission`
+/// (`eamos/<mission>/<peer>/alive`).
+pub(crate) fn alive_peer<'k>(mission: &str, key: &'k str) -> Option<&'k str> {
+    key.strip_prefix("eamos/")?
+        .strip_prefix(mission)?
+        .strip_prefix('/')?
+        .strip_suffix("/alive")
+}
+
 /// Runs a zenoh router of the fleet (`eamos router`) until `stop`: it
 /// carries the traffic of the peers that join through it as clients, and
 /// passes on what the other routers carry, so that losing one router loses
@@ -156,18 +183,7 @@ pub async fn route(
     options: &ZenohOptions,
     stop: tokio_util::sync::CancellationToken,
 ) -> Result<(), TransportError> {
-    let session = zenoh::open(config(options)?).await.map_err(|e| {
-        let e = e.to_string();
-        if e.contains("Address already in use") {
-            TransportError::PortTaken {
-                peer: "the router".to_string(),
-                endpoints: options.listen.clone(),
-                fleet: None,
-            }
-        } else {
-            TransportError::Open(e)
-        }
-    })?;
+    let session = open_session(options, "the router").await?;
     stop.cancelled().await;
     session
         .close()
@@ -188,19 +204,7 @@ pub async fn open(
     for r in reads {
         check_chunk("peer name", r)?;
     }
-    let session = zenoh::open(config(options)?).await.map_err(|e| {
-        let e = e.to_string();
-        // zenoh's own words name its source files: the crew needs the port.
-        if e.contains("Address already in use") {
-            TransportError::PortTaken {
-                peer: me.to_string(),
-                endpoints: options.listen.clone(),
-                fleet: None,
-            }
-        } else {
-            TransportError::Open(e)
-        }
-    })?;
+    let session = open_session(options, me).await?;
 
     let (frames_tx, frames) = mpsc::unbounded_channel();
     let (telemetry_tx, telemetry) = mpsc::unbounded_channel();
@@ -246,7 +250,7 @@ pub async fn open(
     let presence = Arc::new(watch::channel(BTreeSet::new()).0);
     let presence_tx = presence.clone();
     let seen = alive.clone();
-    let prefix = format!("eamos/{mission}/");
+    let mission_owned = mission.to_string();
     let sees_sub = watch_who_sees_whom(&session, mission, alive.clone()).await?;
     let sees_tx = declare_what_i_see(&session, mission, me);
     let me_owned = me.to_string();
@@ -255,11 +259,7 @@ pub async fn open(
         .declare_subscriber(format!("eamos/{mission}/*/alive"))
         .history(true)
         .callback(move |sample| {
-            let k = sample.key_expr().as_str();
-            let Some(peer) = k
-                .strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix("/alive"))
-            else {
+            let Some(peer) = alive_peer(&mission_owned, sample.key_expr().as_str()) else {
                 return;
             };
             let mut peers = seen.peers.lock().expect("alive lock");
@@ -689,6 +689,14 @@ mod tests {
     use super::*;
     use crate::transport::reliable::{Bridges, RetransmitPolicy};
     use crate::transport::BridgeMessage;
+
+    #[test]
+    fn a_liveliness_key_names_its_peer_only_in_its_own_mission() {
+        assert_eq!(alive_peer("M-1", "eamos/M-1/Drone2/alive"), Some("Drone2"));
+        assert_eq!(alive_peer("M-1", "eamos/M-12/Drone2/alive"), None);
+        assert_eq!(alive_peer("M-1", "eamos/M-1/Drone2/sees"), None);
+        assert_eq!(alive_peer("M-1", "other/M-1/Drone2/alive"), None);
+    }
 
     /// A free loopback port: bind port 0 and let the OS choose.
     fn free_port() -> u16 {
