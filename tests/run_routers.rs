@@ -99,14 +99,24 @@ fn a_mission_flies_through_two_routers_and_on_through_one_when_the_other_is_kill
         ),
     )
     .unwrap();
-    let mut routers = Processes(vec![router(&fleet, 1, dir), router(&fleet, 2, dir)]);
+    // The peers start before any router, as drones powered up before the
+    // ground network is: they wait for one. Then the first router comes
+    // up, and every client joins through it; the second one after it.
     let mut peers = Processes(Vec::new());
     for d in ["Drone1", "Drone2", "Drone3"] {
         peers.0.push(peer(&fleet, &["--drone", d], dir, d));
     }
     peers.0.push(peer(&fleet, &["--gcs"], dir, "GCS"));
+    std::thread::sleep(Duration::from_secs(2));
+    let mut routers = Processes(vec![router(&fleet, 1, dir)]);
+    let joined = Instant::now() + Duration::from_secs(120);
+    while started(dir).is_empty() {
+        assert!(Instant::now() < joined, "no peer joined through router 1");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    routers.0.push(router(&fleet, 2, dir));
 
-    // Every client joined through the first router; kill it mid-mission.
+    // Kill the first router mid-mission.
     let deadline = Instant::now() + Duration::from_secs(120);
     while started(dir).len() < 4 {
         assert!(Instant::now() < deadline, "the mission never got going");

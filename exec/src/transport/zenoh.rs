@@ -108,6 +108,13 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
         ("transport/unicast/lowlatency", "true".to_string()),
         ("transport/unicast/qos/enabled", "false".to_string()),
     ];
+    if options.mode == eamos_fleet::Mode::Client {
+        // A drone may start before its routers do: it keeps trying them
+        // instead of giving up (zenoh's clients give up at once by
+        // default), and the ground station's start-up timeout says who
+        // never showed up.
+        settings.push(("connect/timeout_ms", "-1".to_string()));
+    }
     if let Some(tls) = &options.tls {
         if let Some(plain) = options
             .listen
