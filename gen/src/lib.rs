@@ -71,6 +71,9 @@ use rand_chacha::ChaCha8Rng;
 
 #[cfg(feature = "hir")]
 pub mod meg;
+mod philosophers;
+
+pub use philosophers::{philosophers, Table};
 
 /// How big a mission to generate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

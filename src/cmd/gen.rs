@@ -1,4 +1,5 @@
-//! `eamos gen --drones N --nodes K --seed S`: write a stress mission.
+//! `eamos gen --drones N --nodes K --seed S`: write a stress mission; or
+//! `eamos gen --philosophers N [--asymmetric]`: the benchmark net.
 //!
 //! The mission is valid (it compiles, and its cross-drone dependencies
 //! cannot deadlock unless `--risky` asks for ones that may), readable, and
@@ -9,7 +10,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use eamos_gen::{generate, Constructs, Options, Size};
+use eamos_gen::{generate, philosophers, Constructs, Options, Size, Table};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Mix {
@@ -23,11 +24,25 @@ pub enum Mix {
 
 /// Write a valid, readable stress mission of an exact size.
 #[derive(clap::Args)]
-#[command(group(clap::ArgGroup::new("size").required(true).args(["nodes", "actions"])))]
+#[command(group(clap::ArgGroup::new("size").args(["nodes", "actions"])))]
 pub struct Args {
     /// Drones of the mission (named D1, D2, ...).
-    #[arg(long, value_name = "N")]
-    pub drones: usize,
+    #[arg(
+        long,
+        value_name = "N",
+        required_unless_present = "philosophers",
+        requires = "size"
+    )]
+    pub drones: Option<usize>,
+    /// Instead of a mission, the P/T net (PNML) of N dining philosophers,
+    /// each taking the left fork first: the classic benchmark of model
+    /// checkers, with a deadlock.
+    #[arg(long, value_name = "N", conflicts_with_all = ["drones", "nodes", "actions", "risky"])]
+    pub philosophers: Option<usize>,
+    /// With `--philosophers`: the last one takes the right fork first,
+    /// which makes the net deadlock-free.
+    #[arg(long, requires = "philosophers")]
+    pub asymmetric: bool,
     /// Size in nodes of the mission execution graph: actions, pauses,
     /// Signal and Await count one each, a PAR block of two statements or
     /// more two (fork, join), a control structure two (decision, merge),
@@ -56,6 +71,16 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> ExitCode {
+    if let Some(n) = args.philosophers {
+        let table = if args.asymmetric {
+            Table::Asymmetric
+        } else {
+            Table::Symmetric
+        };
+        return write(&args.output, &philosophers(n, table), || {
+            format!("{n} philosophers")
+        });
+    }
     let size = match (args.nodes, args.actions) {
         (Some(n), _) => Size::Nodes(n),
         (None, Some(m)) => Size::Actions(m),
@@ -65,7 +90,7 @@ pub fn run(args: Args) -> ExitCode {
         }
     };
     let options = Options {
-        drones: args.drones,
+        drones: args.drones.unwrap_or(0),
         size,
         seed: args.seed,
         name: args.name,
@@ -83,24 +108,25 @@ pub fn run(args: Args) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    match &args.output {
-        None => print!("{}", mission.text),
+    let s = &mission.stats;
+    write(&args.output, &mission.text, || {
+        format!(
+            "{} drones, {} nodes, {} actions and {} pauses, {} SEQ and {} PAR blocks",
+            s.drones, s.nodes, s.actions, s.pauses, s.seq_blocks, s.par_blocks
+        )
+    })
+}
+
+/// Prints `text`, or writes it to `output` and says what it wrote.
+fn write(output: &Option<PathBuf>, text: &str, what: impl FnOnce() -> String) -> ExitCode {
+    match output {
+        None => print!("{text}"),
         Some(path) => {
-            if let Err(e) = std::fs::write(path, &mission.text) {
+            if let Err(e) = std::fs::write(path, text) {
                 eprintln!("error: cannot write {}: {e}", path.display());
                 return ExitCode::from(2);
             }
-            let s = &mission.stats;
-            eprintln!(
-                "wrote {}: {} drones, {} nodes, {} actions and {} pauses, {} SEQ and {} PAR blocks",
-                path.display(),
-                s.drones,
-                s.nodes,
-                s.actions,
-                s.pauses,
-                s.seq_blocks,
-                s.par_blocks
-            );
+            eprintln!("wrote {}: {}", path.display(), what());
         }
     }
     ExitCode::SUCCESS

@@ -293,7 +293,7 @@ impl Ctx {
         Trace {
             steps: path.iter().map(|&t| step(net, t)).collect(),
             cycle_from: None,
-            marking: marking::<E>(net, ex.store.marking(state)),
+            marking: marking::<E>(net, &ex.store.marking(state)),
         }
     }
 
@@ -305,10 +305,7 @@ impl Ctx {
         structurally_safe: Option<bool>,
     ) {
         let complete = ex.complete();
-        let is_final = |id: u32| {
-            net.final_place
-                .is_some_and(|f| E::get(ex.store.marking(id), f) > 0)
-        };
+        let is_final = |id: u32| net.final_place.is_some_and(|f| ex.store.tokens(id, f) > 0);
 
         // Safety and boundedness first: if the net is not 1-safe, say so.
         let mut unsafe_found = false;
@@ -318,8 +315,8 @@ impl Ctx {
                 let mut trace = self.trace::<E>(net, ex, *state);
                 let prefix = ex.store.path(*ancestor).len();
                 trace.cycle_from = Some(prefix);
-                let a = ex.store.marking(*ancestor);
-                let m = ex.store.marking(*state);
+                let a = &ex.store.marking(*ancestor);
+                let m = &ex.store.marking(*state);
                 let grows: Vec<String> = (0..net.n_places() as u32)
                     .filter(|&p| E::get(m, p) > E::get(a, p))
                     .map(|p| format!("`{}`", net.places[p as usize].id))
@@ -365,12 +362,12 @@ impl Ctx {
                 if E::MAX > 1 {
                     // Counting: the first marking (BFS order) with two tokens.
                     let first = (0..ex.store.len() as u32).find(|&id| {
-                        let m = ex.store.marking(id);
+                        let m = &ex.store.marking(id);
                         (0..net.n_places() as u32).any(|p| E::get(m, p) > 1)
                     });
                     if let Some(id) = first {
                         unsafe_found = true;
-                        let m = ex.store.marking(id);
+                        let m = &ex.store.marking(id);
                         let p = (0..net.n_places() as u32)
                             .find(|&p| E::get(m, p) > 1)
                             .unwrap_or(0);
@@ -636,7 +633,7 @@ impl Ctx {
     }
 
     fn deadlock_finding<E: Encoding>(&self, net: &PtNet, ex: &Exploration, d: u32) -> Finding {
-        let m = ex.store.marking(d);
+        let m = &ex.store.marking(d);
         let mut labels: Vec<Label> = Vec::new();
         let mut blocked: BTreeSet<u32> = BTreeSet::new();
         E::for_each_marked(m, |p| {
@@ -765,7 +762,7 @@ impl Ctx {
             }
             reach
         };
-        let ends = backward(&mut (0..n as u32).filter(|&s| E::get(ex.store.marking(s), f) > 0));
+        let ends = backward(&mut (0..n as u32).filter(|&s| ex.store.tokens(s, f) > 0));
         let mut r = result(Property::Termination, Verdict::Holds, method.to_string());
         let bad: Vec<u32> = (0..n as u32).filter(|&s| !ends[s as usize]).collect();
         if !bad.is_empty() {
