@@ -212,3 +212,50 @@ fn check_json_of_bad_input_is_an_error_object() {
     assert_eq!(j["error"]["line"], 6);
     assert_eq!(j["error"]["col"], 5);
 }
+
+/// The benchmark family of model checkers, written by `eamos gen`: the
+/// symmetric table deadlocks (all holding their left fork, `n` steps from
+/// the start), the asymmetric one does not; asked only about deadlocks,
+/// check answers that alone.
+#[test]
+fn check_only_deadlock_finds_the_philosophers_deadlock_and_proves_the_asymmetric_table_free() {
+    let dir = tempfile::tempdir().unwrap();
+    let net = |n: &str, asym: bool| {
+        let path = dir.path().join(format!("phil-{n}-{asym}.pnml"));
+        let mut gen = eamos();
+        gen.args(["gen", "--philosophers", n, "-o"]).arg(&path);
+        if asym {
+            gen.arg("--asymmetric");
+        }
+        gen.assert().success();
+        path
+    };
+    let report = |path: &PathBuf, extra: &[&str], code: i32| -> serde_json::Value {
+        let out = eamos()
+            .args(["check", "--json", "--only", "deadlock"])
+            .args(extra)
+            .arg(path)
+            .assert()
+            .code(code)
+            .get_output()
+            .stdout
+            .clone();
+        serde_json::from_slice(&out).unwrap()
+    };
+    // Depth-first on a large table; breadth-first (whose frontier grows
+    // exponentially with the table) on a small one, for the shortest.
+    for (n, extra, shortest) in [(200, &[][..], false), (10, &["--shortest"][..], true)] {
+        let j = report(&net(&n.to_string(), false), extra, 1);
+        assert_eq!(j["properties"].as_array().unwrap().len(), 1, "{j}");
+        assert_eq!(j["properties"][0]["verdict"], "violated");
+        let trace = j["findings"][0]["counterexample"]["steps"]
+            .as_array()
+            .unwrap();
+        assert!(trace.len() >= n, "every philosopher takes a fork");
+        if shortest {
+            assert_eq!(trace.len(), n);
+        }
+    }
+    let j = report(&net("6", true), &[], 0);
+    assert_eq!(j["properties"][0]["verdict"], "holds", "{j}");
+}

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use eamos_lang::{SourceFile, Style};
-use eamos_verify::{Options, Report};
+use eamos_verify::{Goal, Options, Report};
 use serde_json::json;
 
 /// Prove a mission (or a PNML net) free of deadlocks, endless waits, drone
@@ -45,6 +45,21 @@ pub struct Args {
     /// what they cost.
     #[arg(long)]
     pub no_spatial: bool,
+    /// Decide only this property, as model checkers are asked one query:
+    /// `deadlock` searches depth-first and stops at the first deadlock.
+    #[arg(long, value_enum, value_name = "PROPERTY")]
+    pub only: Option<Only>,
+    /// With `--only deadlock`: search breadth-first, so that the
+    /// counterexample is a shortest one (slower on large nets).
+    #[arg(long, requires = "only")]
+    pub shortest: bool,
+}
+
+/// The properties that can be asked alone.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Only {
+    /// Can the net reach a dead marking (before the mission's end)?
+    Deadlock,
 }
 
 pub fn run(args: Args) -> ExitCode {
@@ -67,7 +82,13 @@ pub fn run(args: Args) -> ExitCode {
         } else {
             eamos_verify::terminal_progress()
         },
-        spatial: !args.no_spatial,
+        spatial: !args.no_spatial && args.only.is_none(),
+        goal: match args.only {
+            None => Goal::All,
+            Some(Only::Deadlock) => Goal::Deadlock {
+                shortest: args.shortest,
+            },
+        },
         ..Options::default()
     };
     let style = Style {

@@ -46,6 +46,21 @@ pub struct Options {
     pub spatial: bool,
     /// Homes and airspace (a fleet file's); `None`: the default fleet.
     pub space: Option<crate::Space>,
+    /// What to decide: everything, or only whether a deadlock is reachable.
+    pub goal: Goal,
+}
+
+/// What a check is asked to decide.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Goal {
+    /// Every property (one breadth-first exploration serves them all).
+    #[default]
+    All,
+    /// Only whether a deadlock is reachable, as model checkers are asked
+    /// (`ReachabilityDeadlock` of the Model Checking Contest): a
+    /// depth-first search that stops at the first one, or with `shortest`
+    /// a breadth-first one that stops at a shortest one.
+    Deadlock { shortest: bool },
 }
 
 impl Default for Options {
@@ -56,6 +71,7 @@ impl Default for Options {
             progress: None,
             spatial: true,
             space: None,
+            goal: Goal::All,
         }
     }
 }
@@ -65,6 +81,7 @@ impl std::fmt::Debug for Options {
         f.debug_struct("Options")
             .field("reduction", &self.reduction)
             .field("max_memory_mb", &self.max_memory_mb)
+            .field("goal", &self.goal)
             .finish()
     }
 }
@@ -102,6 +119,17 @@ pub(crate) struct Subject {
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
+    let mut report = check_asked(subject, opts);
+    if opts.goal != Goal::All {
+        report
+            .properties
+            .retain(|r| r.property == Property::Deadlock);
+        report.findings.retain(|f| f.kind == FindingKind::Deadlock);
+    }
+    report
+}
+
+fn check_asked(subject: Subject, opts: &Options) -> Report {
     let Subject {
         pt,
         input,
@@ -142,6 +170,7 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         max_bytes,
         keep_edges: pt.final_place.is_some(),
         progress: progress_fn,
+        first_deadlock: false,
     };
 
     let mut ctx = Ctx {
@@ -154,6 +183,21 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         properties: Vec::new(),
     };
 
+    if let Goal::Deadlock { shortest } = opts.goal {
+        if pt.fits_bits() && Concurrency::compute(&pt).unsafe_candidates().is_empty() {
+            let (ex, method) = if shortest {
+                cfg.keep_edges = false;
+                cfg.first_deadlock = true;
+                let method = "breadth-first search for a deadlock, stubborn sets";
+                (explore::explore::<Bits>(&pt, &cfg), method)
+            } else {
+                let method = "depth-first search for a deadlock, stubborn sets";
+                let ex = explore::deadlock::search::<Bits>(&pt, reduction, max_bytes);
+                (ex, method)
+            };
+            return ctx.deadlock_only(name, &pt, &ex, method);
+        }
+    }
     if pt.fits_bits() {
         let conc = Concurrency::compute(&pt);
         let mut monitors: Vec<MonitorKind> = exclusive
@@ -238,6 +282,8 @@ pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
         .collect();
     let net = pt.with_monitors(monitors);
     cfg.reduction = false;
+    cfg.keep_edges = net.final_place.is_some();
+    cfg.first_deadlock = opts.goal != Goal::All;
     let ex = explore::explore::<Bytes>(&net, &cfg);
     let method = "breadth-first exploration, full, with token counts";
     ctx.evaluate::<Bytes>(&net, &ex, method, None);
@@ -878,6 +924,35 @@ impl Ctx {
             trace: Some(trace),
             geometry: None,
         }
+    }
+
+    /// The report of a search for a deadlock alone: found (with its
+    /// counterexample), proved absent (the search ran to its end), or
+    /// undecided.
+    fn deadlock_only(
+        mut self,
+        name: String,
+        net: &PtNet,
+        ex: &Exploration,
+        method: &str,
+    ) -> Report {
+        let at_end = |d: u32| net.final_place.is_some_and(|f| ex.store.tokens(d, f) > 0);
+        let verdict = if let Some(&d) = ex.dead.iter().find(|&&d| !at_end(d)) {
+            self.findings
+                .push(self.deadlock_finding::<Bits>(net, ex, d));
+            Verdict::Violated
+        } else if ex.complete() {
+            Verdict::Holds
+        } else {
+            Verdict::Unknown(Self::stopped_reason(ex))
+        };
+        self.properties
+            .push(result(Property::Deadlock, verdict, method.to_string()));
+        let mut report = self.finish(name, net, ex, method, None);
+        report
+            .properties
+            .retain(|r| r.property == Property::Deadlock);
+        report
     }
 
     fn finish(

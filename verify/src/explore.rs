@@ -88,6 +88,8 @@ use rayon::prelude::*;
 
 use crate::ptnet::PtNet;
 
+pub(crate) mod deadlock;
+
 /// How markings are packed into words.
 pub(crate) trait Encoding: Copy + Send + Sync + 'static {
     const MAX: u32;
@@ -389,6 +391,9 @@ pub(crate) struct Config<'a> {
     /// exploration keeps them anyway: its proviso needs them.
     pub keep_edges: bool,
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Stop at the first deadlock (a dead marking without the final
+    /// place): breadth-first, so at a shortest one.
+    pub first_deadlock: bool,
 }
 
 /// Why exploration stopped before the end.
@@ -404,6 +409,8 @@ pub(crate) enum Stop {
     Unbounded { state: u32, ancestor: u32 },
     /// More states than ids.
     TooManyStates,
+    /// A deadlock was found and only that was asked.
+    Deadlock,
 }
 
 pub(crate) struct Exploration {
@@ -431,6 +438,25 @@ pub(crate) struct Exploration {
 }
 
 impl Exploration {
+    fn new<E: Encoding>(net: &PtNet, words: usize) -> Self {
+        Exploration {
+            store: Store::new::<E>(words),
+            stop: None,
+            dead: Vec::new(),
+            fired: vec![false; net.n_real],
+            monitor_hits: vec![None; net.monitors.len()],
+            edge_offsets: Vec::new(),
+            edges: Vec::new(),
+            edge_trans: Vec::new(),
+            expanded: 0,
+            fully: Vec::new(),
+            full_expansions: 0,
+            edge_count: 0,
+            max_tokens: 0,
+            seconds: 0.0,
+        }
+    }
+
     pub fn complete(&self) -> bool {
         self.stop.is_none()
     }
@@ -715,22 +741,7 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     let start = Instant::now();
     let words = E::words(net.n_places());
     let keep_edges = cfg.keep_edges || cfg.reduction;
-    let mut ex = Exploration {
-        store: Store::new::<E>(words),
-        stop: None,
-        dead: Vec::new(),
-        fired: vec![false; net.n_real],
-        monitor_hits: vec![None; net.monitors.len()],
-        edge_offsets: Vec::new(),
-        edges: Vec::new(),
-        edge_trans: Vec::new(),
-        expanded: 0,
-        fully: Vec::new(),
-        full_expansions: 0,
-        edge_count: 0,
-        max_tokens: 0,
-        seconds: 0.0,
-    };
+    let mut ex = Exploration::new::<E>(net, words);
     let m0 = initial_marking::<E>(net);
     let mut m0_bytes = Vec::new();
     E::encode(&m0, &mut m0_bytes);
@@ -777,8 +788,14 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
                 let id = (cursor + i) as u32;
                 ex.expanded += 1;
                 ex.fully.push(r.full || r.dead);
+                let dead = r.dead;
                 if let Err(stop) = absorb::<E>(&mut ex, net, id, r, None) {
                     ex.stop = Some(stop);
+                    break 'outer;
+                }
+                let at_end = net.final_place.is_some_and(|f| ex.store.tokens(id, f) > 0);
+                if cfg.first_deadlock && dead && !at_end {
+                    ex.stop = Some(Stop::Deadlock);
                     break 'outer;
                 }
                 if keep_edges {

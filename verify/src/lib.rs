@@ -33,7 +33,7 @@ pub mod report;
 mod space;
 mod structural;
 
-pub use check::Options;
+pub use check::{Goal, Options};
 pub use plan::{plan, Plan, PlannedLeg};
 pub use pnml::{PnmlError, PnmlNet};
 pub use report::{

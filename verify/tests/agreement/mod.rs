@@ -14,7 +14,7 @@ use eamos_oracle::{Answer, Verdicts};
 use eamos_petri::game::{self, Marking};
 use eamos_petri::net::{Guard, Net, NodeId, Transition, TransitionKind};
 use eamos_profile::ProfileTable;
-use eamos_verify::{check_net, FindingKind, Options, Property, Report, Verdict};
+use eamos_verify::{check_net, FindingKind, Goal, Options, Property, Report, Verdict};
 
 /// Cases per property test: the count given, or `PROPTEST_CASES` to run
 /// more (or fewer) by hand.
@@ -80,6 +80,52 @@ pub fn agree_every_way(
         }
         let report = check_net(net, profiles, Some(src), &options);
         agree(net, profiles, &report, answer).map_err(|e| format!("{way}: {e}"))?;
+    }
+    for shortest in [false, true] {
+        let options = Options {
+            spatial: false,
+            goal: Goal::Deadlock { shortest },
+            ..Options::default()
+        };
+        let report = check_net(net, profiles, Some(src), &options);
+        agree_on_deadlock(net, profiles, &report, answer, shortest)
+            .map_err(|e| format!("deadlock only (shortest: {shortest}): {e}"))?;
+    }
+    Ok(())
+}
+
+/// What a report asked only about deadlocks must say: the oracle's
+/// verdict, and a counterexample that replays in the token game (a
+/// shortest one when asked for).
+fn agree_on_deadlock(
+    net: &Net,
+    profiles: &ProfileTable,
+    r: &Report,
+    answer: &Answer,
+    shortest: bool,
+) -> Result<(), String> {
+    // A net that breaks the game has no deadlock verdict to compare.
+    let Answer::Decided(v) = answer else {
+        return Ok(());
+    };
+    if r.properties.len() != 1 {
+        return Err(format!("{} properties answered", r.properties.len()));
+    }
+    expect(r, Property::Deadlock, v.deadlock.is_some())?;
+    if let Some(want) = &v.deadlock {
+        let f = r
+            .findings_of(FindingKind::Deadlock)
+            .next()
+            .ok_or("a deadlock verdict without its finding")?;
+        let trace = f.trace.as_ref().ok_or("a deadlock without a trace")?;
+        if shortest && trace.steps.len() != want.len() {
+            return Err(format!(
+                "the deadlock is {} steps away, the shortest {}",
+                trace.steps.len(),
+                want.len()
+            ));
+        }
+        replay_to_deadlock(net, profiles, trace)?;
     }
     Ok(())
 }
