@@ -15,6 +15,7 @@
 //! with its results under `dir`. Progress goes to standard error, the table
 //! to standard output.
 
+mod corpus;
 mod files;
 mod lsp;
 mod probe;
@@ -38,6 +39,9 @@ pub struct Options {
     pub no_run: bool,
     /// How many times each process is measured (the median is reported).
     pub repeat: usize,
+    /// Also check the corpus nets that take minutes (the 16- and 32-drone
+    /// 20,000-node missions).
+    pub full_corpus: bool,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -70,6 +74,20 @@ pub fn report(options: &Options) -> Result<String, String> {
     eprintln!("checking the stress missions once more, to see how far the proofs go...");
     let check_stress = process::probe(&exe, &["check", path(&facts.stress.mission)?], 1)?;
     let check_without_choices = process::probe(&exe, &["check", path(&facts.without_choices)?], 1)?;
+    eprintln!("checking the benchmark corpus...");
+    let corpus_dir = dir.join("corpus");
+    std::fs::create_dir_all(&corpus_dir)
+        .map_err(|e| format!("cannot create {}: {e}", corpus_dir.display()))?;
+    let mut corpus = Vec::new();
+    for entry in corpus::prepare(&corpus_dir)? {
+        let checked = if entry.full_only && !options.full_corpus {
+            None
+        } else {
+            eprintln!("  {}", entry.generator);
+            Some(corpus::check(&exe, &entry)?)
+        };
+        corpus.push((entry, checked));
+    }
     eprintln!("timing the language server's diagnostics after an edit...");
     let lsp = lsp::measure(&exe, &facts.stress.mission)?;
     Ok(table::table(&table::Measured {
@@ -84,6 +102,7 @@ pub fn report(options: &Options) -> Result<String, String> {
         check_stress,
         check_without_choices,
         lsp,
+        corpus,
     }))
 }
 

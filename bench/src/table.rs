@@ -104,6 +104,8 @@ pub struct Measured<'a> {
     pub check_without_choices: Process,
     /// `eamos lsp` on the stress mission.
     pub lsp: crate::lsp::Latency,
+    /// The checker's corpus; `None` where it was not run.
+    pub corpus: Vec<(crate::corpus::Entry, Option<crate::corpus::Checked>)>,
 }
 
 /// One row of the table.
@@ -530,6 +532,40 @@ pub fn table(m: &Measured) -> String {
             Some(m.lsp.edit.as_secs_f64() * 1e3 <= goal::LSP_EDIT_MS),
         ),
     );
+
+    for (entry, checked) in &m.corpus {
+        let asked = if entry.deadlock_only {
+            "deadlock only"
+        } else {
+            "every property but the spatial ones"
+        };
+        let what = format!("`eamos check`, corpus: `{}`, {asked}", entry.generator);
+        let figure = match checked {
+            None => "not run (`--full-corpus` runs it)".to_string(),
+            Some(c) => format!(
+                "{}: {} ({} states, peak memory {})",
+                c.verdict,
+                ms(c.wall),
+                c.states,
+                mem(c.peak_kib)
+            ),
+        };
+        let mut r = row(what, figure);
+        if let Some(goal_s) = entry.goal_s {
+            r = r.goal(
+                format!("decided in < {goal_s} s"),
+                checked
+                    .as_ref()
+                    .map(|c| c.decided && c.wall.as_secs_f64() < goal_s),
+            );
+        } else {
+            r = r.goal(
+                format!("decided within {} MB", crate::corpus::MAX_MEMORY_MB),
+                checked.as_ref().map(|c| c.decided),
+            );
+        }
+        rows.push(r);
+    }
 
     let mut out = String::new();
     out.push_str("| measurement | eamos | paper | baseline | goal | met |\n");

@@ -18,6 +18,10 @@ pub struct Args {
     /// How many times each process is measured (the median is reported).
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub repeat: usize,
+    /// Also check the corpus nets that take minutes: the 16- and 32-drone
+    /// 20,000-node missions.
+    #[arg(long)]
+    pub full_corpus: bool,
     /// Measure one process and exit: `idle`, `compile MISSION` or `start
     /// SLICE` (the report runs itself this way).
     #[arg(long, hide = true, num_args = 1..=2, value_names = ["WHAT", "FILE"])]
@@ -32,6 +36,7 @@ pub fn run(args: Args) -> ExitCode {
         dir: args.dir,
         no_run: args.no_run,
         repeat: args.repeat,
+        full_corpus: args.full_corpus,
     };
     match eamos_bench::report(&options) {
         Ok(table) => {

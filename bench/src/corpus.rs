@@ -1,0 +1,157 @@
+//! The checker's benchmark corpus: nets that model checkers are compared
+//! on, each written here from its generator command, checked by this
+//! program as a whole process, and reported with its verdict, its states,
+//! its time and its peak memory.
+//!
+//! - The dining philosophers (`eamos gen --philosophers N [--asymmetric]`),
+//!   the classic family of the Model Checking Contest, asked only whether a
+//!   deadlock is reachable, as model checkers are: the symmetric tables
+//!   deadlock, the asymmetric ones do not.
+//! - Generated missions of 20,000 nodes (`eamos gen --drones D --nodes
+//!   20000 --seed S`), every property. The two largest take minutes and
+//!   gigabytes today, so they run only when the full corpus is asked for.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use eamos_gen::{generate, philosophers, Constructs, Options, Size, Table};
+use serde_json::Value;
+
+/// One net of the corpus.
+pub struct Entry {
+    /// The command that writes it.
+    pub generator: String,
+    pub file: PathBuf,
+    /// `--only deadlock`, or every property.
+    pub deadlock_only: bool,
+    /// Run only with the full corpus.
+    pub full_only: bool,
+    /// The goal for it, in seconds.
+    pub goal_s: Option<f64>,
+}
+
+/// What checking one net gave.
+pub struct Checked {
+    pub verdict: String,
+    pub decided: bool,
+    pub states: u64,
+    pub wall: Duration,
+    pub peak_kib: u64,
+}
+
+/// Memory bound of the corpus checks, in MB: a net that needs more is
+/// reported undecided rather than left to run for minutes.
+pub const MAX_MEMORY_MB: u64 = 256;
+
+/// Writes the corpus into `dir`.
+pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
+    let mut out = Vec::new();
+    let write = |name: &str, text: &str| -> Result<PathBuf, String> {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        Ok(path)
+    };
+    for (n, table, goal_s) in [
+        (10, Table::Symmetric, None),
+        (100, Table::Symmetric, None),
+        (1000, Table::Symmetric, Some(0.1)),
+        (10, Table::Asymmetric, None),
+        (50, Table::Asymmetric, None),
+        (100, Table::Asymmetric, Some(0.1)),
+    ] {
+        let asym = table == Table::Asymmetric;
+        let suffix = if asym { " --asymmetric" } else { "" };
+        let name = format!("philosophers-{n}{}.pnml", if asym { "-asym" } else { "" });
+        out.push(Entry {
+            generator: format!("eamos gen --philosophers {n}{suffix}"),
+            file: write(&name, &philosophers(n, table))?,
+            deadlock_only: true,
+            full_only: false,
+            goal_s,
+        });
+    }
+    for (drones, seed, mix, full_only) in [
+        (8, 9007, Constructs::WITHOUT_CHOICES, false),
+        (16, 9005, Constructs::ALL, true),
+        (32, 9010, Constructs::ALL, true),
+    ] {
+        let mut options = Options::new(drones, Size::Nodes(20_000), seed);
+        options.constructs = mix;
+        let flag = if mix == Constructs::ALL {
+            ""
+        } else {
+            " --constructs without-choices"
+        };
+        let mission = generate(&options).map_err(|e| e.to_string())?;
+        out.push(Entry {
+            generator: format!("eamos gen --drones {drones} --nodes 20000 --seed {seed}{flag}"),
+            file: write(&format!("mission-{drones}-{seed}.go"), &mission.text)?,
+            deadlock_only: false,
+            full_only,
+            goal_s: Some(5.0),
+        });
+    }
+    Ok(out)
+}
+
+/// `eamos check --json` of one entry, as a whole process.
+pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
+    let mut args: Vec<String> = vec!["check".into(), "--json".into()];
+    args.push(format!("--max-memory={MAX_MEMORY_MB}"));
+    if entry.deadlock_only {
+        args.extend(["--only".into(), "deadlock".into()]);
+    } else {
+        args.push("--no-spatial".into());
+    }
+    let peak_file = entry.file.with_extension("peak");
+    let timed = Path::new("/usr/bin/time").exists();
+    let mut cmd = if timed {
+        // `/proc/self/exe` would name `time` itself once it runs.
+        let exe = std::fs::read_link(exe).unwrap_or_else(|_| exe.to_path_buf());
+        let mut c = Command::new("/usr/bin/time");
+        c.args(["-f", "%M", "-o"]).arg(&peak_file).arg(exe);
+        c
+    } else {
+        Command::new(exe)
+    };
+    cmd.args(&args).arg(&entry.file).stderr(Stdio::null());
+    let started = Instant::now();
+    let out = cmd
+        .output()
+        .map_err(|e| format!("cannot check {}: {e}", entry.file.display()))?;
+    let wall = started.elapsed();
+    let report: Value = serde_json::from_slice(&out.stdout)
+        .map_err(|e| format!("the check of {} said no report ({e})", entry.file.display()))?;
+    let verdicts: Vec<String> = report["properties"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|p| p["verdict"] != "not-applicable")
+        .map(|p| {
+            format!(
+                "{} {}",
+                p["property"].as_str().unwrap_or("?"),
+                p["verdict"].as_str().unwrap_or("?")
+            )
+        })
+        .collect();
+    let decided = verdicts.iter().all(|v| !v.ends_with("unknown"));
+    let peak_kib = std::fs::read_to_string(&peak_file)
+        .ok()
+        .and_then(|s| s.lines().last()?.trim().parse().ok())
+        .unwrap_or(0);
+    Ok(Checked {
+        verdict: if entry.deadlock_only {
+            verdicts.join(", ")
+        } else if decided {
+            "every property decided".into()
+        } else {
+            "**undecided**".into()
+        },
+        decided,
+        states: report["stats"]["states"].as_u64().unwrap_or(0),
+        wall,
+        peak_kib,
+    })
+}
