@@ -50,6 +50,11 @@ pub struct Options {
     pub goal: Goal,
 }
 
+/// States of the first, short deadlock search of [`Goal::Deadlock`], per
+/// node of the net: enough to walk into a deadlock a few times the net's
+/// size deep, little beside proving there is none.
+const QUICK_SEARCH_PER_NODE: usize = 2;
+
 /// What a check is asked to decide.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Goal {
@@ -184,18 +189,8 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
     };
 
     if let Goal::Deadlock { shortest } = opts.goal {
-        if pt.fits_bits() && Concurrency::compute(&pt).unsafe_candidates().is_empty() {
-            let (ex, method) = if shortest {
-                cfg.keep_edges = false;
-                cfg.first_deadlock = true;
-                let method = "breadth-first search for a deadlock, stubborn sets";
-                (explore::explore::<Bits>(&pt, &cfg), method)
-            } else {
-                let method = "depth-first search for a deadlock, stubborn sets";
-                let ex = explore::deadlock::search::<Bits>(&pt, reduction, max_bytes);
-                (ex, method)
-            };
-            return ctx.deadlock_only(name, &pt, &ex, method);
+        if let Some(report) = deadlock_alone(&mut ctx, &name, &pt, &mut cfg, shortest) {
+            return report;
         }
     }
     if pt.fits_bits() {
@@ -296,6 +291,67 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
     ctx.finish(name, &net, &ex, method, conditions)
 }
 
+/// [`Goal::Deadlock`] on a net that fits one bit per place: a portfolio,
+/// as model checkers run one. A short depth-first search finds the
+/// deadlocks that are near (most are); the place invariants may prove that
+/// there is none; then the search goes on to its bound. `None`: the net is
+/// not proved 1-safe, and the general exploration (with token counts)
+/// answers.
+///
+/// A deadlock found is real whatever the net: every step of its path was
+/// fired with its outputs checked for a second token. "No deadlock" needs
+/// the net 1-safe, as the invariants' clauses do.
+fn deadlock_alone(
+    ctx: &mut Ctx,
+    name: &str,
+    pt: &PtNet,
+    cfg: &mut Config,
+    shortest: bool,
+) -> Option<Report> {
+    if !pt.fits_bits() {
+        return None;
+    }
+    let dfs = "depth-first search for a deadlock, stubborn sets";
+    let report = |ctx: &mut Ctx, ex: &Exploration, method: &str| {
+        let ctx = std::mem::replace(ctx, ctx.empty());
+        ctx.deadlock_only(name.to_string(), pt, ex, method)
+    };
+    let mut quick = None;
+    if !shortest {
+        let budget = QUICK_SEARCH_PER_NODE * (pt.n_places() + pt.n_real);
+        let ex = explore::deadlock::search::<Bits>(pt, cfg.reduction, cfg.max_bytes, budget);
+        if !ex.dead.is_empty() {
+            return Some(report(ctx, &ex, dfs));
+        }
+        if matches!(ex.stop, Some(Stop::Unsafe { .. })) {
+            return None;
+        }
+        quick = Some(ex);
+    }
+    if !Concurrency::compute(pt).unsafe_candidates().is_empty() {
+        return None;
+    }
+    if let Some(ex) = quick.filter(|ex| ex.complete()) {
+        return Some(report(ctx, &ex, dfs));
+    }
+    if let Some(why) = crate::invariants::deadlock_free(pt) {
+        let ex = Exploration::new::<Bits>(pt, 0);
+        let mut r = report(ctx, &ex, "place invariants and SAT");
+        r.properties[0].notes.push(why);
+        return Some(r);
+    }
+    let (ex, method) = if shortest {
+        cfg.keep_edges = false;
+        cfg.first_deadlock = true;
+        let method = "breadth-first search for a deadlock, stubborn sets";
+        (explore::explore::<Bits>(pt, cfg), method)
+    } else {
+        let ex = explore::deadlock::search::<Bits>(pt, cfg.reduction, cfg.max_bytes, usize::MAX);
+        (ex, dfs)
+    };
+    Some(report(ctx, &ex, method))
+}
+
 struct Ctx {
     input: InputKind,
     running: HashMap<u32, ActionInfo>,
@@ -316,6 +372,19 @@ fn result(property: Property, verdict: Verdict, method: impl Into<String>) -> Pr
 }
 
 impl Ctx {
+    /// A context with this one's input kind and nothing else.
+    fn empty(&self) -> Ctx {
+        Ctx {
+            input: self.input,
+            running: HashMap::new(),
+            starts: Vec::new(),
+            loops: Vec::new(),
+            waits: Vec::new(),
+            findings: Vec::new(),
+            properties: Vec::new(),
+        }
+    }
+
     fn mission(&self) -> bool {
         self.input == InputKind::Mission
     }

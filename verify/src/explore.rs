@@ -438,7 +438,7 @@ pub(crate) struct Exploration {
 }
 
 impl Exploration {
-    fn new<E: Encoding>(net: &PtNet, words: usize) -> Self {
+    pub(crate) fn new<E: Encoding>(net: &PtNet, words: usize) -> Self {
         Exploration {
             store: Store::new::<E>(words),
             stop: None,

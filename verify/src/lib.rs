@@ -24,6 +24,7 @@
 pub mod check;
 pub mod conditions;
 mod explore;
+mod invariants;
 mod mission;
 mod names;
 pub mod plan;
@@ -32,6 +33,8 @@ mod ptnet;
 pub mod report;
 mod space;
 mod structural;
+#[cfg(test)]
+mod testnet;
 
 pub use check::{Goal, Options};
 pub use plan::{plan, Plan, PlannedLeg};

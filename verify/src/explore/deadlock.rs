@@ -26,8 +26,14 @@ struct Frame {
 }
 
 /// Explores depth-first until a deadlock (in `ex.dead`), the memory bound,
-/// or the end of the reduced state space (then no deadlock is reachable).
-pub(crate) fn search<E: Encoding>(net: &PtNet, reduction: bool, max_bytes: usize) -> Exploration {
+/// `max_states`, or the end of the reduced state space (then no deadlock is
+/// reachable).
+pub(crate) fn search<E: Encoding>(
+    net: &PtNet,
+    reduction: bool,
+    max_bytes: usize,
+    max_states: usize,
+) -> Exploration {
     let start = Instant::now();
     let words = E::words(net.n_places());
     let mut ex = Exploration::new::<E>(net, words);
@@ -85,6 +91,8 @@ pub(crate) fn search<E: Encoding>(net: &PtNet, reduction: bool, max_bytes: usize
             ex.stop = Some(stop);
         } else if is_deadlock(&ex, id, &frame.succ) {
             ex.dead.push(id);
+        } else if ex.store.len() >= max_states {
+            ex.stop = Some(Stop::TooManyStates);
         } else if ex.store.len() % 1024 == 0 && ex.memory_bytes() > max_bytes {
             ex.stop = Some(Stop::Memory);
         }
