@@ -633,6 +633,17 @@ fn successors<E: Encoding>(
 fn stubborn<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, real_enabled: usize) {
     const SEEDS: usize = 16;
     s.best.clear();
+    // An enabled transition in conflict with nothing is a stubborn set on
+    // its own (its closure adds nothing): take the first, without building
+    // closures that may walk back through a drone's whole chain of disabled
+    // steps before they lose to it.
+    if let Some(&t) = s.enabled[..real_enabled]
+        .iter()
+        .find(|&&t| net.conflicts.get(t as usize).iter().all(|&u| u == t))
+    {
+        s.best.push(t);
+        return;
+    }
     s.best.extend_from_slice(&s.enabled[..real_enabled]);
     for i in 0..real_enabled.min(SEEDS) {
         let seed = s.enabled[i];
