@@ -12,10 +12,12 @@
 //! Run it from the workspace with a release build, so that it measures what
 //! users run: `cargo run --release -- bench-report`. It runs `cargo bench`
 //! (the `compile`, `start`, `check`, `executor` and `bridge` benchmarks)
-//! with its results under `dir`. Progress goes to standard error, the table
+//! with its results under `dir`, and flies fleets of simulated drones one
+//! process per drone (`fleet`). Progress goes to standard error, the table
 //! to standard output.
 
 mod files;
+mod fleet;
 mod lsp;
 mod probe;
 mod process;
@@ -38,6 +40,9 @@ pub struct Options {
     pub no_run: bool,
     /// How many times each process is measured (the median is reported).
     pub repeat: usize,
+    /// The fleets flown one process per drone, by their numbers of drones
+    /// (once each: a fleet is a hundred processes, not one).
+    pub fleets: Vec<usize>,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -72,6 +77,11 @@ pub fn report(options: &Options) -> Result<String, String> {
     let check_without_choices = process::probe(&exe, &["check", path(&facts.without_choices)?], 1)?;
     eprintln!("timing the language server's diagnostics after an edit...");
     let lsp = lsp::measure(&exe, &facts.stress.mission)?;
+    let mut fleets = Vec::new();
+    for &drones in &options.fleets {
+        eprintln!("flying {drones} drones, one process each, through a zenoh router...");
+        fleets.push(fleet::measure(&exe, &dir, drones)?);
+    }
     Ok(table::table(&table::Measured {
         results: &results,
         facts: &facts,
@@ -84,6 +94,7 @@ pub fn report(options: &Options) -> Result<String, String> {
         check_stress,
         check_without_choices,
         lsp,
+        fleets,
     }))
 }
 
