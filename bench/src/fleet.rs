@@ -98,6 +98,10 @@ fn peak_kib(path: &Path) -> u64 {
 
 /// Flies `drones` drones, one process each, in `dir`.
 pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String> {
+    // GNU `time` starts the processes: `/proc/self/exe` would be `time`
+    // itself there.
+    let exe = &std::fs::canonicalize(exe)
+        .map_err(|e| format!("cannot resolve {}: {e}", exe.display()))?;
     let dir = dir.join(format!("fleet-{drones}"));
     if dir.exists() {
         std::fs::remove_dir_all(&dir)

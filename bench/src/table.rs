@@ -561,8 +561,9 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
         f.drones * 10
     );
     let start = f.to_start.map(|d| d.as_secs_f64());
-    let start_met = start.map(|s| s <= goal::FLEET_START_S);
-    let peak_met = (f.drone_max_kib > 0 && f.gcs_kib > 0)
+    let start_met = Some(start.is_some_and(|s| s <= goal::FLEET_START_S));
+    // Only a fleet that flew its mission says what a process weighs.
+    let peak_met = (f.completed && f.drone_max_kib > 0 && f.gcs_kib > 0)
         .then(|| mb(f.drone_max_kib.max(f.gcs_kib)) <= goal::FLEET_PROCESS_MB);
     vec![
         row(
