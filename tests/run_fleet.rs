@@ -226,6 +226,31 @@ fn experiment_d_is_refused_for_its_findings_and_says_which() {
 }
 
 #[test]
+fn the_ground_station_refuses_experiment_d_and_a_drone_leaves_the_check_to_it() {
+    // The ground station checks, as the whole fleet does, and starts
+    // nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_experiment_d(dir.path(), &["--gcs"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("eamos::drift"), "{stderr}");
+    assert!(stderr.contains("not flying it"), "{stderr}");
+    assert!(std::fs::read_dir(dir.path()).map_or(true, |d| d.count() == 0));
+    // A drone's agent does not check: it waits for a ground station that
+    // never starts the mission, until its time limit, having flown nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let out = run_experiment_d(dir.path(), &["--drone", "D1", "--speed", "400"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}\n{stderr}");
+    assert!(!stderr.contains("not flying it"), "{stderr}");
+    assert!(!stderr.contains("eamos::drift"), "{stderr}");
+    assert!(stdout.contains("did not complete"), "{stdout}");
+    let log = mission_log(dir.path(), "D1");
+    assert_eq!(count(&log, "action_started"), 0, "{log:?}");
+}
+
+#[test]
 fn experiment_d_with_a_scripted_pilot_lands_everyone_at_the_time_limit_and_says_what_waited() {
     let dir = tempfile::tempdir().unwrap();
     let out = run_experiment_d(dir.path(), &["--allow-findings"]);

@@ -181,8 +181,8 @@ impl Fleet {
 
 /// Lead is killed a fraction of a second into the mission; Follow saw it
 /// up before that, since the ground station starts a mission only once
-/// every two peers reach each other (a drone that never saw a peer could
-/// not tell it lost from late).
+/// every drone sees the peers it exchanges tokens with (a drone that never
+/// saw a peer could not tell it lost from late).
 #[test]
 fn an_agent_killed_mid_mission_leaves_the_others_untouched_and_the_drone_waiting_on_it_returns_home(
 ) {

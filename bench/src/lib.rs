@@ -12,11 +12,13 @@
 //! Run it from the workspace with a release build, so that it measures what
 //! users run: `cargo run --release -- bench-report`. It runs `cargo bench`
 //! (the `compile`, `start`, `check`, `executor` and `bridge` benchmarks)
-//! with its results under `dir`. Progress goes to standard error, the table
+//! with its results under `dir`, and flies fleets of simulated drones one
+//! process per drone (`fleet`). Progress goes to standard error, the table
 //! to standard output.
 
 mod corpus;
 mod files;
+mod fleet;
 mod lsp;
 mod probe;
 mod process;
@@ -42,6 +44,9 @@ pub struct Options {
     /// Also check the corpus nets that take minutes (the 16- and 32-drone
     /// 20,000-node missions).
     pub full_corpus: bool,
+    /// The fleets flown one process per drone, by their numbers of drones
+    /// (once each: a fleet is a hundred processes, not one).
+    pub fleets: Vec<usize>,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -90,6 +95,11 @@ pub fn report(options: &Options) -> Result<String, String> {
     }
     eprintln!("timing the language server's diagnostics after an edit...");
     let lsp = lsp::measure(&exe, &facts.stress.mission)?;
+    let mut fleets = Vec::new();
+    for &drones in &options.fleets {
+        eprintln!("flying {drones} drones, one process each, through a zenoh router...");
+        fleets.push(fleet::measure(&exe, &dir, drones)?);
+    }
     Ok(table::table(&table::Measured {
         results: &results,
         facts: &facts,
@@ -103,6 +113,7 @@ pub fn report(options: &Options) -> Result<String, String> {
         check_without_choices,
         lsp,
         corpus,
+        fleets,
     }))
 }
 

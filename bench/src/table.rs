@@ -34,6 +34,10 @@ mod goal {
     pub const BRIDGE_RATIO: f64 = 1.5;
     /// From an edit to its diagnostics in the editor (issue 16).
     pub const LSP_EDIT_MS: f64 = 50.0;
+    /// A fleet of 250 drones, one process each, starts within this (issue
+    /// 23), and each process stays under `FLEET_PROCESS_MB`.
+    pub const FLEET_START_S: f64 = 10.0;
+    pub const FLEET_PROCESS_MB: f64 = 20.0;
 }
 
 /// How far a proof of the `check` probe went.
@@ -106,6 +110,8 @@ pub struct Measured<'a> {
     pub lsp: crate::lsp::Latency,
     /// The checker's corpus; `None` where it was not run.
     pub corpus: Vec<(crate::corpus::Entry, Option<crate::corpus::Checked>)>,
+    /// Fleets flown one process per drone.
+    pub fleets: Vec<crate::fleet::FleetRun>,
 }
 
 /// One row of the table.
@@ -567,6 +573,10 @@ pub fn table(m: &Measured) -> String {
         rows.push(r);
     }
 
+    for f in &m.fleets {
+        rows.extend(fleet_rows(f));
+    }
+
     let mut out = String::new();
     out.push_str("| measurement | eamos | paper | baseline | goal | met |\n");
     out.push_str("| --- | --- | --- | --- | --- | --- |\n");
@@ -577,6 +587,49 @@ pub fn table(m: &Measured) -> String {
         ));
     }
     out
+}
+
+/// The rows of one fleet flown one process per drone.
+fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
+    let what = format!(
+        "{} drones, one process each plus the ground station, through one zenoh router ({}-node mission, release build)",
+        f.drones,
+        f.drones * 10
+    );
+    let start = f.to_start.map(|d| d.as_secs_f64());
+    let start_met = Some(start.is_some_and(|s| s <= goal::FLEET_START_S));
+    // Only a fleet that flew its mission says what a process weighs.
+    let peak_met = (f.completed && f.drone_max_kib > 0 && f.gcs_kib > 0)
+        .then(|| mb(f.drone_max_kib.max(f.gcs_kib)) <= goal::FLEET_PROCESS_MB);
+    vec![
+        row(
+            format!("{what}: from the launch to the mission's start"),
+            start.map_or("did not start".to_string(), |s| format!("{s:.1} s")),
+        )
+        .goal(format!("≤ {} s", goal::FLEET_START_S), start_met),
+        row(
+            format!("{what}: from the launch to the last process's exit"),
+            format!(
+                "{:.1} s ({})",
+                f.to_end.as_secs_f64(),
+                if f.completed {
+                    "completed"
+                } else {
+                    "did not complete"
+                }
+            ),
+        ),
+        row(
+            format!("{what}: peak memory per process"),
+            format!(
+                "drones: largest {}, median {}; ground station {}",
+                mem(f.drone_max_kib),
+                mem(f.drone_median_kib),
+                mem(f.gcs_kib)
+            ),
+        )
+        .goal(format!("≤ {} MB", goal::FLEET_PROCESS_MB), peak_met),
+    ]
 }
 
 #[cfg(test)]

@@ -558,9 +558,11 @@ impl Executor {
                 .filter(|p| p.as_str() != GCS)
                 .cloned()
                 .collect();
+            // Every drone ready: up, and seeing the few peers it exchanges
+            // tokens or telemetry with (not the whole fleet).
             let wait = self
                 .link
-                .wait_for_mesh(&others, self.options.startup_timeout);
+                .wait_for_ready(&others, self.options.startup_timeout);
             tokio::select! {
                 r = wait => if let Err(e) = r {
                     self.ended = Some(Outcome::Failed { reason: format!("cannot start: {e}") });
@@ -569,6 +571,23 @@ impl Executor {
             }
         }
 
+        if self.me() != GCS {
+            // Says this drone is ready once it sees its neighbours, in the
+            // background: a drone resumed mid-mission plays on meanwhile,
+            // and a fresh one holds no token before the ground station,
+            // which waits for that, starts the mission.
+            let link = self.link.clone();
+            let neighbours = crate::liveness::neighbours(&self.slice);
+            let done = publisher.clone();
+            tokio::spawn(async move {
+                tokio::select! {
+                    r = link.announce_ready(&neighbours) => if let Err(e) = r {
+                        tracing::warn!("{}: cannot say it is ready: {e}", link.me());
+                    },
+                    _ = done.cancelled() => {}
+                }
+            });
+        }
         let deadline = self.options.max_duration.map(|d| started + d);
         let mut presence = self.link.presence();
         if let Some(p) = presence.as_mut() {

@@ -33,6 +33,27 @@ use crate::names::PeerId;
 
 pub use eamos_fleet::policy::{parse_duration, Grace, Liveness, OnLost, DEFAULT_GRACE};
 
+/// The peers a drone must see before the mission starts: those it has
+/// bridges with (either way), the drones whose telemetry its conditions
+/// read, and the ground station. They are every peer it may ever wait on
+/// ([`waits_on`], [`waits_for_handover`], a condition's frozen telemetry),
+/// so once it has seen them all it can tell each of them lost from late;
+/// the rest of the fleet it need not wait for. The slicer knows them: a
+/// handful per drone, whatever the fleet's size.
+pub fn neighbours(slice: &Slice) -> Vec<PeerId> {
+    let mut out: BTreeSet<PeerId> = slice
+        .peers
+        .iter()
+        .chain(&slice.telemetry)
+        .chain(slice.bridges_in.iter().map(|b| &b.from))
+        .chain(slice.bridges_out.iter().map(|b| &b.to))
+        .cloned()
+        .collect();
+    out.insert(crate::names::GCS.to_string());
+    out.remove(&slice.drone);
+    out.into_iter().collect()
+}
+
 /// The peers whose tokens the marking waits for: every transition that has
 /// some input tokens and lacks only tokens from bridges names the senders
 /// of those bridges.

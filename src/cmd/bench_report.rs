@@ -22,6 +22,17 @@ pub struct Args {
     /// 20,000-node missions.
     #[arg(long)]
     pub full_corpus: bool,
+    /// Fly fleets of these sizes, one process per drone plus the ground
+    /// station, through a zenoh router: from the launch to the mission's
+    /// start, to its end, and each process's peak memory. The default
+    /// keeps a CI run short; a full run says `--fleets 50,100,250`.
+    #[arg(
+        long,
+        value_name = "N,...",
+        value_delimiter = ',',
+        default_value = "50"
+    )]
+    pub fleets: Vec<usize>,
     /// Measure one process and exit: `idle`, `compile MISSION` or `start
     /// SLICE` (the report runs itself this way).
     #[arg(long, hide = true, num_args = 1..=2, value_names = ["WHAT", "FILE"])]
@@ -37,6 +48,7 @@ pub fn run(args: Args) -> ExitCode {
         no_run: args.no_run,
         repeat: args.repeat,
         full_corpus: args.full_corpus,
+        fleets: args.fleets,
     };
     match eamos_bench::report(&options) {
         Ok(table) => {

@@ -80,7 +80,9 @@ pub struct Args {
     pub journal: Option<PathBuf>,
     /// Fly even when `eamos check` finds errors in the mission (two drones
     /// that can meet, a leg out of the airspace...): the findings are
-    /// printed either way.
+    /// printed either way. The check is the ground station's: a drone's
+    /// agent (`--drone`) does not check, and flies only once the ground
+    /// station (`--gcs`), which does, starts the mission.
     #[arg(long)]
     pub allow_findings: bool,
     /// Serve the live monitor on ADDR (`HOST:PORT`, or a port alone for
@@ -108,12 +110,28 @@ pub fn run(args: Args) -> ExitCode {
     if !(args.startup_timeout.is_finite() && args.startup_timeout >= 0.0) {
         return bad_input("--startup-timeout must be zero or more seconds");
     }
-    let loaded = match mission::load_to_fly(
-        &args.mission,
-        args.fleet.as_deref(),
-        std::io::stderr().is_terminal(),
-        args.allow_findings,
-    ) {
+    let colour = std::io::stderr().is_terminal();
+    let loaded = if args.drone.is_some() {
+        // A drone's agent compiles and slices the mission, and does not
+        // check it: the proof is the ground station's (or the whole
+        // fleet's, or `eamos check`'s), made once for the fleet instead of
+        // once per drone. Nothing flies unchecked: a drone holds no token
+        // until the ground station starts the mission, which it does only
+        // once the mission passed its check (or the crew said
+        // `--allow-findings` to it), and only for the same mission and
+        // fleet, since every message is scoped by their identity. A fleet
+        // of a hundred drones in one process each on one computer then
+        // pays for one check, not a hundred.
+        mission::load(&args.mission, args.fleet.as_deref(), colour)
+    } else {
+        mission::load_to_fly(
+            &args.mission,
+            args.fleet.as_deref(),
+            colour,
+            args.allow_findings,
+        )
+    };
+    let loaded = match loaded {
         Ok(m) => m,
         Err(status) => return status,
     };

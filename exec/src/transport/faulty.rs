@@ -227,12 +227,16 @@ impl Link for FaultyLink {
         self.inner.wait_for_peers(peers, timeout).await
     }
 
-    async fn wait_for_mesh(
+    async fn announce_ready(&self, neighbours: &[PeerId]) -> Result<(), TransportError> {
+        self.inner.announce_ready(neighbours).await
+    }
+
+    async fn wait_for_ready(
         &self,
         peers: &[PeerId],
         timeout: Duration,
     ) -> Result<(), TransportError> {
-        self.inner.wait_for_mesh(peers, timeout).await
+        self.inner.wait_for_ready(peers, timeout).await
     }
 
     /// The inner link's presence as seen through the partition, kept up to

@@ -122,10 +122,10 @@ pub enum TransportError {
         missing: Vec<PeerId>,
         waited: Duration,
     },
-    #[error("peers do not all reach each other after {waited:?} ({}): every peer must reach every other one; check the zenoh endpoints of the fleet file", describe_unlinked(.pairs))]
-    Unlinked {
-        /// (A, B): A does not see B.
-        pairs: Vec<(PeerId, PeerId)>,
+    #[error("peers {} are up but not ready after {waited:?}: each waits until it sees every peer it exchanges tokens or telemetry with; check the zenoh endpoints (or routers) of the fleet file (`RUST_LOG=eamos_exec=debug` on a drone says whom it does not see)", .peers.join(", "))]
+    NotReady {
+        /// Up, but not seeing every peer it needs yet.
+        peers: Vec<PeerId>,
         waited: Duration,
     },
     #[error("peer {peer} runs another version of mission {mission} (version {theirs}, this peer {ours}): peers of two versions refuse each other; build every peer from the same mission and fleet file")]
@@ -135,14 +135,6 @@ pub enum TransportError {
         theirs: String,
         ours: String,
     },
-}
-
-fn describe_unlinked(pairs: &[(PeerId, PeerId)]) -> String {
-    pairs
-        .iter()
-        .map(|(a, b)| format!("{a} does not see {b}"))
-        .collect::<Vec<_>>()
-        .join(", ")
 }
 
 /// Takes the frames addressed to a peer as they arrive (see
@@ -183,13 +175,26 @@ pub trait Link: Send + Sync + 'static {
         timeout: Duration,
     ) -> Result<(), TransportError>;
 
-    /// Waits until every peer in `peers` is up and every two of them, this
-    /// one included, reach each other. The ground station starts a mission
-    /// only then: a drone that never saw a peer it waits on cannot tell,
-    /// when that peer dies, that it is lost rather than late. A link whose
-    /// peers all meet in one place (the in-process hub) only waits for them
-    /// to be up.
-    async fn wait_for_mesh(
+    /// Says, once this peer sees every one of `neighbours` up, that it is
+    /// ready: it can tell each of them lost from late. A drone's neighbours
+    /// are the peers it has bridges with, the drones whose telemetry its
+    /// conditions read and the ground station ([`crate::liveness::neighbours`]),
+    /// a handful whatever the fleet's size: a drone never waits for the
+    /// whole fleet. Returns once it has said so; a link whose peers all
+    /// meet in one place (the in-process hub) has nothing to say.
+    async fn announce_ready(&self, neighbours: &[PeerId]) -> Result<(), TransportError> {
+        let _ = neighbours;
+        Ok(())
+    }
+
+    /// Waits until every peer in `peers` is up and ready (see
+    /// [`Link::announce_ready`]). The ground station starts a mission only
+    /// then: a drone that never saw a peer it waits on cannot tell, when
+    /// that peer dies, that it is lost rather than late. The wait costs
+    /// one liveliness token per peer, not one per pair of peers. A link
+    /// whose peers all meet in one place (the in-process hub) only waits
+    /// for them to be up.
+    async fn wait_for_ready(
         &self,
         peers: &[PeerId],
         timeout: Duration,

@@ -4,8 +4,8 @@
 //! peers lost and back), into a sink.
 //!
 //! Architecture Invariant: the peers never depend on an observer. It
-//! declares no liveliness token (nobody waits for it, nobody counts it in
-//! the mesh the ground station waits for), listens on no endpoint,
+//! declares no liveliness token (nobody waits for it, no drone counts it
+//! among the peers it must see before it is ready), listens on no endpoint,
 //! publishes nothing and only connects to the peers' endpoints.
 
 use std::collections::BTreeMap;

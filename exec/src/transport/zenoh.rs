@@ -8,7 +8,7 @@
 //! | `eamos/<mission>/<peer>/ack` | acknowledgements addressed to `peer` |
 //! | `eamos/<mission>/<drone>/telemetry` | the state of `drone`, for remote conditions |
 //! | `eamos/<mission>/<peer>/alive` | liveliness token: `peer` is up |
-//! | `eamos/<mission>/<peer>/sees/<other>` | liveliness token: `peer` sees `other`'s `alive` token |
+//! | `eamos/<mission>/<peer>/ready` | liveliness token: `peer` sees every peer it exchanges tokens or telemetry with |
 //!
 //! Peers find each other through explicit endpoints (each listens on its own
 //! and connects to the others'); multicast scouting is off unless asked for,
@@ -258,8 +258,6 @@ pub async fn open(
     let presence_tx = presence.clone();
     let seen = alive.clone();
     let mission_owned = mission.to_string();
-    let sees_sub = watch_who_sees_whom(&session, mission, alive.clone()).await?;
-    let sees_tx = declare_what_i_see(&session, mission, me);
     let me_owned = me.to_string();
     let alive_sub = session
         .liveliness()
@@ -278,9 +276,6 @@ pub async fn open(
                 SampleKind::Delete => {
                     peers.remove(peer);
                 }
-            }
-            if peer != me_owned {
-                let _ = sees_tx.send((sample.kind(), peer.to_string()));
             }
             presence_tx.send_replace(peers.iter().cloned().collect());
             seen.changed.notify_waiters();
@@ -303,7 +298,7 @@ pub async fn open(
         alive,
         _subscribers: subscribers,
         _alive_subscriber: alive_sub,
-        _sees_subscriber: sees_sub,
+        ready: tokio::sync::Mutex::new(Ready::default()),
         _token: token,
         _version: version,
         presence,
@@ -322,87 +317,22 @@ fn up_or_gone(kind: SampleKind) -> &'static str {
     }
 }
 
-/// Declares `eamos/<mission>/<me>/sees/<peer>` while `me` sees `peer`'s
-/// alive token, from the (peer appeared or went) events sent on the
-/// returned channel. zenoh peers do not pass on each other's liveliness
-/// tokens, so "A sees B" means A and B are linked: the ground station
-/// starts a mission only once every two peers are (see
-/// [`Link::wait_for_mesh`]), otherwise a drone could wait on a peer it
-/// never saw, which it cannot tell apart from a late one when it is lost.
-/// The declaring task ends when the alive subscriber, which holds the
-/// sender, is dropped with the link.
-fn declare_what_i_see(
-    session: &Session,
-    mission: &str,
-    me: &str,
-) -> mpsc::UnboundedSender<(SampleKind, PeerId)> {
-    let (tx, mut rx) = mpsc::unbounded_channel::<(SampleKind, PeerId)>();
-    let session = session.clone();
-    let (mission, me) = (mission.to_string(), me.to_string());
-    tokio::spawn(async move {
-        let mut tokens: HashMap<PeerId, LivelinessToken> = HashMap::new();
-        while let Some((kind, peer)) = rx.recv().await {
-            match kind {
-                SampleKind::Put if !tokens.contains_key(&peer) => {
-                    let k = key(&mission, &me, &format!("sees/{peer}"));
-                    match session.liveliness().declare_token(k.clone()).await {
-                        Ok(t) => {
-                            tokens.insert(peer, t);
-                        }
-                        Err(e) => tracing::warn!("cannot declare {k}: {e}"),
-                    }
-                }
-                SampleKind::Put => {}
-                SampleKind::Delete => {
-                    tokens.remove(&peer);
-                }
-            }
-        }
-    });
-    tx
-}
-
-/// Follows the `sees` tokens of every peer of `mission` into `alive.sees`.
-async fn watch_who_sees_whom(
-    session: &Session,
-    mission: &str,
-    alive: Arc<Alive>,
-) -> Result<Subscriber<()>, TransportError> {
-    let prefix = format!("eamos/{mission}/");
-    session
-        .liveliness()
-        .declare_subscriber(format!("eamos/{mission}/*/sees/*"))
-        .history(true)
-        .callback(move |sample| {
-            let Some((peer, other)) = sample
-                .key_expr()
-                .as_str()
-                .strip_prefix(&prefix)
-                .and_then(|r| r.split_once("/sees/"))
-            else {
-                return;
-            };
-            let pair = (peer.to_string(), other.to_string());
-            let mut sees = alive.sees.lock().expect("alive lock");
-            match sample.kind() {
-                SampleKind::Put => sees.insert(pair),
-                SampleKind::Delete => sees.remove(&pair),
-            };
-            drop(sees);
-            alive.changed.notify_waiters();
-        })
-        .await
-        .map_err(|e| TransportError::Open(e.to_string()))
-}
-
 #[derive(Default)]
 struct Alive {
     peers: Mutex<HashSet<PeerId>>,
-    /// (A, B): peer A sees peer B's alive token (they are linked).
-    sees: Mutex<HashSet<(PeerId, PeerId)>>,
+    /// Peers whose `ready` token is up (followed once
+    /// [`Link::wait_for_ready`] is first asked).
+    ready: Mutex<HashSet<PeerId>>,
     changed: Notify,
     /// Peers seen running another version of this mission, with theirs.
     foreign: Mutex<HashMap<PeerId, String>>,
+}
+
+/// The `ready` liveliness tokens of one link (see [`Link::announce_ready`]).
+#[derive(Default)]
+struct Ready {
+    token: Option<LivelinessToken>,
+    subscriber: Option<Subscriber<()>>,
 }
 
 struct ZenohLink {
@@ -418,12 +348,52 @@ struct ZenohLink {
     presence: Arc<watch::Sender<BTreeSet<PeerId>>>,
     _subscribers: Vec<Subscriber<()>>,
     _alive_subscriber: Subscriber<()>,
-    _sees_subscriber: Subscriber<()>,
+    /// This peer's `ready` token once declared, and the subscriber to the
+    /// others' once someone waits for them.
+    ready: tokio::sync::Mutex<Ready>,
     _token: LivelinessToken,
     _version: Option<(LivelinessToken, Subscriber<()>)>,
 }
 
 impl ZenohLink {
+    /// Follows the peers' `ready` tokens into `alive.ready`, from the first
+    /// call on: only whoever waits for them (the ground station) hears
+    /// them, one token per peer.
+    async fn follow_ready(&self) -> Result<(), TransportError> {
+        let mut ready = self.ready.lock().await;
+        if ready.subscriber.is_some() {
+            return Ok(());
+        }
+        let prefix = format!("eamos/{}/", self.mission);
+        let alive = self.alive.clone();
+        let sub = self
+            .session
+            .liveliness()
+            .declare_subscriber(format!("eamos/{}/*/ready", self.mission))
+            .history(true)
+            .callback(move |sample| {
+                let Some(peer) = sample
+                    .key_expr()
+                    .as_str()
+                    .strip_prefix(&prefix)
+                    .and_then(|r| r.strip_suffix("/ready"))
+                else {
+                    return;
+                };
+                let mut ready = alive.ready.lock().expect("alive lock");
+                match sample.kind() {
+                    SampleKind::Put => ready.insert(peer.to_string()),
+                    SampleKind::Delete => ready.remove(peer),
+                };
+                drop(ready);
+                alive.changed.notify_waiters();
+            })
+            .await
+            .map_err(|e| TransportError::Open(e.to_string()))?;
+        ready.subscriber = Some(sub);
+        Ok(())
+    }
+
     async fn put(&self, key: String, bytes: Vec<u8>) -> Result<(), TransportError> {
         let mut publishers = self.publishers.lock().await;
         if !publishers.contains_key(&key) {
@@ -475,14 +445,7 @@ impl Link for ZenohLink {
         let deadline = tokio::time::Instant::now() + timeout;
         loop {
             let changed = self.alive.changed.notified();
-            let missing: Vec<PeerId> = {
-                let alive = self.alive.peers.lock().expect("alive lock");
-                peers
-                    .iter()
-                    .filter(|p| !alive.contains(*p))
-                    .cloned()
-                    .collect()
-            };
+            let missing = self.alive.missing(peers);
             if missing.is_empty() {
                 return Ok(());
             }
@@ -504,28 +467,65 @@ impl Link for ZenohLink {
         }
     }
 
-    async fn wait_for_mesh(
+    async fn announce_ready(&self, neighbours: &[PeerId]) -> Result<(), TransportError> {
+        loop {
+            let changed = self.alive.changed.notified();
+            let unseen = self.alive.missing(neighbours);
+            if unseen.is_empty() {
+                break;
+            }
+            tracing::debug!("{}: not ready, does not see {unseen:?} yet", self.me);
+            // Liveliness changes wake us; the timer only bounds the wait.
+            let tick = tokio::time::sleep(Duration::from_secs(1));
+            tokio::select! {
+                _ = changed => {}
+                _ = tick => {}
+            }
+        }
+        let mut ready = self.ready.lock().await;
+        if ready.token.is_none() {
+            let token = self
+                .session
+                .liveliness()
+                .declare_token(key(&self.mission, &self.me, "ready"))
+                .await
+                .map_err(|e| TransportError::Open(e.to_string()))?;
+            tracing::debug!("{}: ready", self.me);
+            ready.token = Some(token);
+        }
+        Ok(())
+    }
+
+    async fn wait_for_ready(
         &self,
         peers: &[PeerId],
         timeout: Duration,
     ) -> Result<(), TransportError> {
         let deadline = tokio::time::Instant::now() + timeout;
+        self.follow_ready().await?;
         self.wait_for_peers(peers, timeout).await?;
         loop {
             let changed = self.alive.changed.notified();
-            let unlinked = self.alive.unlinked(&self.me, peers);
-            if unlinked.is_empty() {
+            let unready: Vec<PeerId> = {
+                let ready = self.alive.ready.lock().expect("alive lock");
+                peers
+                    .iter()
+                    .filter(|p| !ready.contains(*p))
+                    .cloned()
+                    .collect()
+            };
+            if unready.is_empty() {
                 return Ok(());
             }
-            tracing::debug!("{}: waiting until {unlinked:?} see each other", self.me);
+            tracing::debug!("{}: waiting until {unready:?} are ready", self.me);
             let tick = tokio::time::sleep(Duration::from_millis(200));
             tokio::select! {
                 _ = changed => {}
                 _ = tick => {}
             }
             if tokio::time::Instant::now() >= deadline {
-                return Err(TransportError::Unlinked {
-                    pairs: self.alive.unlinked(&self.me, peers),
+                return Err(TransportError::NotReady {
+                    peers: unready,
                     waited: timeout,
                 });
             }
@@ -596,27 +596,10 @@ async fn announce_version(
 }
 
 impl Alive {
-    /// The pairs (A, B) of `peers` and `me` where A does not see B (yet).
-    fn unlinked(&self, me: &str, peers: &[PeerId]) -> Vec<(PeerId, PeerId)> {
+    /// Those of `peers` whose alive token this peer does not see (yet).
+    fn missing(&self, peers: &[PeerId]) -> Vec<PeerId> {
         let up = self.peers.lock().expect("alive lock");
-        let sees = self.sees.lock().expect("alive lock");
-        let all: Vec<&str> = std::iter::once(me)
-            .chain(peers.iter().map(String::as_str))
-            .collect();
-        let mut out = Vec::new();
-        for &a in &all {
-            for &b in all.iter().filter(|b| **b != a) {
-                let seen = if a == me {
-                    up.contains(b)
-                } else {
-                    sees.contains(&(a.to_string(), b.to_string()))
-                };
-                if !seen {
-                    out.push((a.to_string(), b.to_string()));
-                }
-            }
-        }
-        out
+        peers.iter().filter(|p| !up.contains(*p)).cloned().collect()
     }
 
     /// The first of `missing` that runs another version of `mission`.
@@ -766,48 +749,65 @@ mod tests {
         .unwrap()
     }
 
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn the_ground_station_waits_until_every_two_peers_reach_each_other_not_only_itself() {
-        let (pg, p1, p2) = (free_port(), free_port(), free_port());
-        let mission = "MeshTest-1";
-        // D1 and D2 each know only the ground station: zenoh peers do not
-        // pass on each other's tokens, so the two never meet.
-        let gcs = peer(mission, "GCS", pg, &[p1, p2]).await;
-        let _d1 = peer(mission, "D1", p1, &[pg]).await;
-        let _d2 = peer(mission, "D2", p2, &[pg]).await;
-        let drones = ["D1".to_string(), "D2".to_string()];
-        gcs.link
-            .wait_for_peers(&drones, Duration::from_secs(20))
-            .await
-            .expect("the ground station sees both drones");
-        let e = gcs
-            .link
-            .wait_for_mesh(&drones, Duration::from_secs(2))
-            .await
-            .unwrap_err();
-        match &e {
-            TransportError::Unlinked { pairs, .. } => assert_eq!(
-                pairs,
-                &[("D1".into(), "D2".into()), ("D2".into(), "D1".into())]
-            ),
-            other => panic!("{other}"),
-        }
-        assert!(e.to_string().contains("D1 does not see D2"), "{e}");
+    /// Announces `me` ready once it sees `neighbours`, in the background.
+    fn announce(e: &Endpoint, neighbours: &[&str]) -> tokio::task::JoinHandle<()> {
+        let link = e.link.clone();
+        let neighbours: Vec<PeerId> = neighbours.iter().map(|p| p.to_string()).collect();
+        tokio::spawn(async move { link.announce_ready(&neighbours).await.unwrap() })
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn peers_that_all_reach_each_other_form_a_mesh_whatever_order_they_start_in() {
+    async fn a_drone_is_ready_once_it_sees_its_neighbours_and_the_ground_station_waits_for_every_drone(
+    ) {
+        let (pg, p1, p2, p3) = (free_port(), free_port(), free_port(), free_port());
+        let mission = "ReadyTest-1";
+        // Each drone knows only the ground station: zenoh peers do not pass
+        // on each other's tokens, so no two drones ever meet.
+        let gcs = peer(mission, "GCS", pg, &[p1, p2, p3]).await;
+        let d1 = peer(mission, "D1", p1, &[pg]).await;
+        let d2 = peer(mission, "D2", p2, &[pg]).await;
+        let d3 = peer(mission, "D3", p3, &[pg]).await;
+        // D1 and D2 exchange nothing with another drone: they are ready as
+        // soon as they see the ground station, not waiting for D3.
+        let (r1, r2) = (announce(&d1, &["GCS"]), announce(&d2, &["GCS"]));
+        // D3 has a bridge with D1, which it never sees: it never says it is
+        // ready, and the ground station names it.
+        let r3 = announce(&d3, &["GCS", "D1"]);
+        gcs.link
+            .wait_for_ready(&["D1".into(), "D2".into()], Duration::from_secs(20))
+            .await
+            .expect("D1 and D2 need to see only the ground station");
+        let e = gcs
+            .link
+            .wait_for_ready(
+                &["D1".into(), "D2".into(), "D3".into()],
+                Duration::from_secs(2),
+            )
+            .await
+            .unwrap_err();
+        match &e {
+            TransportError::NotReady { peers, .. } => assert_eq!(peers, &["D3".to_string()]),
+            other => panic!("{other}"),
+        }
+        assert!(e.to_string().contains("D3 are up but not ready"), "{e}");
+        assert!(r1.is_finished() && r2.is_finished() && !r3.is_finished());
+        r3.abort();
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn drones_that_see_their_neighbours_are_ready_whatever_order_they_start_in() {
         let (pg, p1, p2) = (free_port(), free_port(), free_port());
-        let mission = "MeshTest-2";
+        let mission = "ReadyTest-2";
         // The drones start first and try each other at once; the ground
         // station comes last.
         let (c1, c2) = ([pg, p2], [pg, p1]);
         let (d1, d2) = tokio::join!(peer(mission, "D1", p1, &c1), peer(mission, "D2", p2, &c2));
+        let _ready = (announce(&d1, &["GCS", "D2"]), announce(&d2, &["GCS", "D1"]));
         let gcs = peer(mission, "GCS", pg, &[p1, p2]).await;
         gcs.link
-            .wait_for_mesh(&["D1".into(), "D2".into()], Duration::from_secs(30))
+            .wait_for_ready(&["D1".into(), "D2".into()], Duration::from_secs(30))
             .await
-            .expect("every two peers meet");
+            .expect("every drone sees its neighbours");
         drop((d1, d2));
     }
 

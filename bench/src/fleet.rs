@@ -1,0 +1,214 @@
+//! A fleet of drones, one process each, on this computer: `eamos gen`'s
+//! mission of N drones (ten nodes per drone, seed 12), flown by N
+//! processes `eamos run --drone Dk` and one `eamos run --gcs`, all joined
+//! through one zenoh router (`eamos router`, named by the fleet file's
+//! `[zenoh] routers`), as a crew would start them. Measured: from the
+//! launch to the mission's start (the ground station's first token, sent
+//! once every drone is ready), from the launch to the last process's exit,
+//! and the peak resident set of each process.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Simulated seconds per real second.
+const SPEED: &str = "50";
+/// How long the ground station waits for every drone to be ready.
+const STARTUP: Duration = Duration::from_secs(120);
+/// When the measurement gives up on a fleet that has not ended.
+const LIMIT: Duration = Duration::from_secs(300);
+
+/// What one fleet did.
+#[derive(Debug, Clone)]
+pub struct FleetRun {
+    pub drones: usize,
+    /// From the launch to the ground station's first token; `None` if the
+    /// mission never started.
+    pub to_start: Option<Duration>,
+    /// From the launch to the last process's exit (or to the limit).
+    pub to_end: Duration,
+    /// The ground station said the mission completed, and every process
+    /// exited with success.
+    pub completed: bool,
+    /// Peak resident set in KiB of the largest drone process, of the
+    /// median one and of the ground station's (0: not measured, without
+    /// GNU `time`).
+    pub drone_max_kib: u64,
+    pub drone_median_kib: u64,
+    pub gcs_kib: u64,
+}
+
+/// Processes (each the leader of its own process group, with GNU `time`
+/// around it) killed with their group when dropped.
+struct Group(Vec<Child>);
+
+impl Drop for Group {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            kill_group(c);
+            let _ = c.wait();
+        }
+    }
+}
+
+#[cfg(unix)]
+fn kill_group(c: &mut Child) {
+    // SAFETY: a plain system call on a process group this program made.
+    unsafe {
+        libc::kill(-(c.id() as libc::pid_t), libc::SIGKILL);
+    }
+}
+
+#[cfg(not(unix))]
+fn kill_group(c: &mut Child) {
+    let _ = c.kill();
+}
+
+fn free_port() -> Result<u16, String> {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .map_err(|e| format!("cannot find a free port: {e}"))
+}
+
+/// `exe ARGS` under GNU `time`, writing its peak memory to `peak` (when
+/// that is installed), in a process group of its own.
+fn command(exe: &Path, peak: &Path, timed: bool) -> Command {
+    let mut cmd = if timed {
+        let mut c = Command::new("/usr/bin/time");
+        c.args(["-f", "%M", "-o"]).arg(peak).arg(exe);
+        c
+    } else {
+        Command::new(exe)
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        cmd.process_group(0);
+    }
+    cmd
+}
+
+fn peak_kib(path: &Path) -> u64 {
+    std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| t.lines().last()?.trim().parse().ok())
+        .unwrap_or(0)
+}
+
+/// Flies `drones` drones, one process each, in `dir`.
+pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String> {
+    // GNU `time` starts the processes: `/proc/self/exe` would be `time`
+    // itself there.
+    let exe = &std::fs::canonicalize(exe)
+        .map_err(|e| format!("cannot resolve {}: {e}", exe.display()))?;
+    let dir = dir.join(format!("fleet-{drones}"));
+    if dir.exists() {
+        std::fs::remove_dir_all(&dir)
+            .map_err(|e| format!("cannot clear {}: {e}", dir.display()))?;
+    }
+    std::fs::create_dir_all(dir.join("peak"))
+        .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let write = |name: &str, text: &[u8]| -> Result<PathBuf, String> {
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        Ok(p)
+    };
+    let gen = Command::new(exe)
+        .args(["gen", "--drones", &drones.to_string()])
+        .args(["--nodes", &(drones * 10).to_string(), "--seed", "12"])
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", exe.display()))?;
+    if !gen.status.success() {
+        return Err(format!("eamos gen failed: {gen:?}"));
+    }
+    let mission = write("fleet.go", &gen.stdout)?;
+    let fleet = write(
+        "fleet.toml",
+        format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{}\"]\n", free_port()?).as_bytes(),
+    )?;
+    let timed = Path::new("/usr/bin/time").exists();
+    let logs = dir.join("logs");
+    let gcs_log = logs.join("GCS.mission.jsonl");
+    let peak = |tag: &str| dir.join("peak").join(tag);
+    let spawn = |mut cmd: Command| {
+        cmd.stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .map_err(|e| format!("cannot start a process of the fleet: {e}"))
+    };
+
+    let launched = Instant::now();
+    let mut router = Group(Vec::new());
+    let mut cmd = command(exe, &peak("router"), false);
+    cmd.args(["router", "--fleet"])
+        .arg(&fleet)
+        .args(["--router", "1"]);
+    router.0.push(spawn(cmd)?);
+    let mut peers = Group(Vec::new());
+    let roles = (1..=drones)
+        .map(|k| {
+            (
+                format!("D{k}"),
+                vec!["--drone".to_string(), format!("D{k}")],
+            )
+        })
+        .chain(std::iter::once((
+            "GCS".to_string(),
+            vec!["--gcs".to_string()],
+        )));
+    for (tag, role) in roles {
+        let mut cmd = command(exe, &peak(&tag), timed);
+        cmd.arg("run")
+            .arg(&mission)
+            .arg("--fleet")
+            .arg(&fleet)
+            .args(&role)
+            .args(["--speed", SPEED, "--max-duration", "100000"])
+            .args(["--startup-timeout", &STARTUP.as_secs().to_string()])
+            .arg("--out")
+            .arg(&logs);
+        peers.0.push(spawn(cmd)?);
+    }
+
+    let mut to_start = None;
+    let mut statuses = vec![None; peers.0.len()];
+    while launched.elapsed() < LIMIT {
+        if to_start.is_none()
+            && std::fs::read_to_string(&gcs_log)
+                .is_ok_and(|t| t.contains("\"event\":\"bridge_sent\""))
+        {
+            to_start = Some(launched.elapsed());
+        }
+        for (c, s) in peers.0.iter_mut().zip(statuses.iter_mut()) {
+            if s.is_none() {
+                *s = c
+                    .try_wait()
+                    .map_err(|e| format!("cannot wait for a process of the fleet: {e}"))?;
+            }
+        }
+        if statuses.iter().all(Option::is_some) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let to_end = launched.elapsed();
+    drop(peers);
+    drop(router);
+    let said = std::fs::read_to_string(&gcs_log).unwrap_or_default();
+    let completed = statuses.iter().all(|s| s.is_some_and(|s| s.success()))
+        && said.contains("\"event\":\"stopped\",\"reason\":\"completed\"");
+    let mut peaks: Vec<u64> = (1..=drones)
+        .map(|k| peak_kib(&peak(&format!("D{k}"))))
+        .collect();
+    peaks.sort_unstable();
+    Ok(FleetRun {
+        drones,
+        to_start,
+        to_end,
+        completed,
+        drone_max_kib: peaks.last().copied().unwrap_or(0),
+        drone_median_kib: peaks.get(peaks.len() / 2).copied().unwrap_or(0),
+        gcs_kib: peak_kib(&peak("GCS")),
+    })
+}
