@@ -86,6 +86,29 @@ fn gen_refuses_no_drones_a_bad_name_and_a_missing_size() {
 }
 
 #[test]
+fn gen_writes_the_philosophers_net_and_refuses_a_table_of_one() {
+    let out = eamos()
+        .args(["gen", "--philosophers", "3", "--asymmetric"])
+        .assert()
+        .success()
+        .get_output()
+        .stdout
+        .clone();
+    let text = String::from_utf8(out).unwrap();
+    assert!(text.contains("<net id=\"philosophers-asym-3\""));
+    assert_eq!(text.matches("<place ").count(), 12);
+    eamos()
+        .args(["gen", "--philosophers", "1"])
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("at least two philosophers"));
+    eamos()
+        .args(["gen", "--philosophers", "5", "--drones", "2"])
+        .assert()
+        .code(2);
+}
+
+#[test]
 fn gen_says_when_it_cannot_write_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("no/such/dir/m.go");

@@ -27,7 +27,8 @@ pub enum Table {
     Asymmetric,
 }
 
-/// The net of `n` philosophers (at least 2) as a PNML document.
+/// The net of `n` philosophers as a PNML document; a table has at least
+/// two (fewer are taken as two).
 pub fn philosophers(n: usize, table: Table) -> String {
     let n = n.max(2);
     let mut out = String::with_capacity(n * 1400);

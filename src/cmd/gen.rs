@@ -72,6 +72,10 @@ pub struct Args {
 
 pub fn run(args: Args) -> ExitCode {
     if let Some(n) = args.philosophers {
+        if n < 2 {
+            eprintln!("error: `--philosophers {n}`: a table needs at least two philosophers");
+            return ExitCode::from(2);
+        }
         let table = if args.asymmetric {
             Table::Asymmetric
         } else {
