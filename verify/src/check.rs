@@ -214,7 +214,17 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         }
         let base = recorded.unwrap_or_else(|| pt.clone());
         let net = base.with_monitors(monitors);
-        let ex = explore::explore::<Bits>(&net, &cfg);
+        // A plain 1-safe net without `final` asks the exploration one
+        // thing only, whether it deadlocks: where the place invariants
+        // prove it cannot, nothing is explored.
+        let plain = ctx.input == InputKind::Pnml && pt.final_place.is_none();
+        let proof = (plain && structurally_safe && net.monitors.is_empty())
+            .then(|| crate::invariants::deadlock_free(&pt))
+            .flatten();
+        let ex = match proof {
+            Some(_) => Exploration::new::<Bits>(&net, 0),
+            None => explore::explore::<Bits>(&net, &cfg),
+        };
         let unsafe_hit = matches!(ex.stop, Some(Stop::Unsafe { .. }))
             || net
                 .monitors
@@ -228,6 +238,19 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
                 "breadth-first exploration, full"
             };
             ctx.evaluate::<Bits>(&net, &ex, method, Some(structurally_safe));
+            if let Some(why) = proof {
+                let r = ctx
+                    .properties
+                    .iter_mut()
+                    .find(|r| r.property == Property::Deadlock)
+                    .expect("evaluate answers deadlock");
+                *r = result(
+                    Property::Deadlock,
+                    Verdict::Holds,
+                    "place invariants and SAT",
+                );
+                r.notes.push(why);
+            }
             let near = match (&space, &ext) {
                 (Some(prep), Some(e)) => {
                     let hits: Vec<(u32, usize)> = net
