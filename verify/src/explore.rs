@@ -97,14 +97,53 @@ pub(crate) trait Encoding: Copy + Send + Sync + 'static {
     fn get(m: &[u64], p: u32) -> u32;
     fn set(m: &mut [u64], p: u32, v: u32);
     fn for_each_marked(m: &[u64], f: impl FnMut(u32));
+    /// Whether the compact form carries a count after each place (else
+    /// every listed place holds one token).
+    const COUNTED: bool;
     /// Appends the marking in the store's compact form: the marked places
     /// as gaps from the previous one, in LEB128 (and, with counts, the
     /// count after each). Equal markings encode to equal bytes.
-    fn encode(m: &[u64], out: &mut Vec<u8>);
+    fn encode(m: &[u64], out: &mut Vec<u8>) {
+        let mut last = 0u32;
+        Self::for_each_marked(m, |p| {
+            put_varint(p - last, out);
+            if Self::COUNTED {
+                out.push(Self::get(m, p) as u8);
+            }
+            last = p;
+        });
+    }
     /// Writes the marking `bytes` encodes into `out` (all words).
-    fn decode(bytes: &[u8], out: &mut [u64]);
+    fn decode(bytes: &[u8], out: &mut [u64]) {
+        out.iter_mut().for_each(|w| *w = 0);
+        for (p, count) in entries::<Self>(bytes) {
+            Self::set(out, p, count);
+        }
+    }
     /// The tokens on `p` in an encoded marking, without decoding it all.
-    fn tokens(bytes: &[u8], p: u32) -> u32;
+    fn tokens(bytes: &[u8], p: u32) -> u32 {
+        entries::<Self>(bytes)
+            .find(|&(q, _)| q >= p)
+            .map_or(0, |(q, count)| if q == p { count } else { 0 })
+    }
+}
+
+/// The marked places of an encoded marking, in order, with their counts.
+fn entries<E: Encoding>(bytes: &[u8]) -> impl Iterator<Item = (u32, u32)> + '_ {
+    let (mut i, mut p) = (0, 0u32);
+    std::iter::from_fn(move || {
+        if i >= bytes.len() {
+            return None;
+        }
+        p += get_varint(bytes, &mut i);
+        let count = if E::COUNTED {
+            i += 1;
+            u32::from(bytes[i - 1])
+        } else {
+            1
+        };
+        Some((p, count))
+    })
 }
 
 fn put_varint(mut v: u32, out: &mut Vec<u8>) {
@@ -139,6 +178,7 @@ pub(crate) struct Bytes;
 
 impl Encoding for Bits {
     const MAX: u32 = 1;
+    const COUNTED: bool = false;
     fn words(places: usize) -> usize {
         places.div_ceil(64).max(1)
     }
@@ -160,35 +200,11 @@ impl Encoding for Bits {
             }
         }
     }
-    fn encode(m: &[u64], out: &mut Vec<u8>) {
-        let mut last = 0u32;
-        Self::for_each_marked(m, |p| {
-            put_varint(p - last, out);
-            last = p;
-        });
-    }
-    fn decode(bytes: &[u8], out: &mut [u64]) {
-        out.iter_mut().for_each(|w| *w = 0);
-        let (mut i, mut p) = (0, 0u32);
-        while i < bytes.len() {
-            p += get_varint(bytes, &mut i);
-            out[p as usize >> 6] |= 1 << (p & 63);
-        }
-    }
-    fn tokens(bytes: &[u8], p: u32) -> u32 {
-        let (mut i, mut q) = (0, 0u32);
-        while i < bytes.len() {
-            q += get_varint(bytes, &mut i);
-            if q >= p {
-                return u32::from(q == p);
-            }
-        }
-        0
-    }
 }
 
 impl Encoding for Bytes {
     const MAX: u32 = 255;
+    const COUNTED: bool = true;
     fn words(places: usize) -> usize {
         places.div_ceil(8).max(1)
     }
@@ -211,35 +227,6 @@ impl Encoding for Bytes {
                 w &= !(0xff << (byte * 8));
             }
         }
-    }
-    fn encode(m: &[u64], out: &mut Vec<u8>) {
-        let mut last = 0u32;
-        Self::for_each_marked(m, |p| {
-            put_varint(p - last, out);
-            out.push(Self::get(m, p) as u8);
-            last = p;
-        });
-    }
-    fn decode(bytes: &[u8], out: &mut [u64]) {
-        out.iter_mut().for_each(|w| *w = 0);
-        let (mut i, mut p) = (0, 0u32);
-        while i < bytes.len() {
-            p += get_varint(bytes, &mut i);
-            Self::set(out, p, u32::from(bytes[i]));
-            i += 1;
-        }
-    }
-    fn tokens(bytes: &[u8], p: u32) -> u32 {
-        let (mut i, mut q) = (0, 0u32);
-        while i < bytes.len() {
-            q += get_varint(bytes, &mut i);
-            let count = u32::from(bytes[i]);
-            i += 1;
-            if q >= p {
-                return if q == p { count } else { 0 };
-            }
-        }
-        0
     }
 }
 
