@@ -235,6 +235,19 @@ fn eamos_monitor_watches_separate_processes_and_shows_a_killed_drone_lost() {
     );
     assert_eq!(b.count("#drones-live tr.lost"), 0, "nobody is lost yet");
     assert_eq!(b.count("#abort"), 0, "no abort without the ground key");
+    // What each drone does, published by its process for observers: the
+    // marking on the graph and the current action in the panel.
+    b.wait_long(
+        "return document.querySelectorAll('#graph .node.place.marked').length > 0;",
+        PATIENCE,
+        "the peers' markings, from their events on zenoh",
+    );
+    b.wait_long(
+        "return Array.from(document.querySelectorAll('#drones-live td.action'))\
+         .some(e => e.textContent.indexOf('(') > 0);",
+        PATIENCE,
+        "a drone's current action, from its events on zenoh",
+    );
 
     // Drone2's process dies: its liveliness token goes, and the page says so.
     let mut drone2 = peers.remove(1);

@@ -151,12 +151,85 @@ fn read(out: &Path, file: &str) -> String {
     std::fs::read_to_string(out.join(file)).unwrap_or_default()
 }
 
+/// `eamos monitor` on the fleet, started first, and everything its page
+/// is sent (`/events`, server-sent events), as it arrives.
+struct Monitor {
+    _process: Processes,
+    heard: std::sync::Arc<Mutex<String>>,
+}
+
+impl Monitor {
+    fn start(fleet: &Path) -> Monitor {
+        let mut child = Command::cargo_bin("eamos")
+            .unwrap()
+            .arg("monitor")
+            .arg(paper("experiment_b.go"))
+            .arg("--fleet")
+            .arg(fleet)
+            .args(["--listen", "127.0.0.1:0"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        let stderr = child.stderr.take().unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            use std::io::BufRead;
+            for line in std::io::BufReader::new(stderr)
+                .lines()
+                .map_while(Result::ok)
+            {
+                if let Some(url) = line.strip_prefix("monitor: http://") {
+                    let _ = tx.send(url.trim_end_matches('/').to_string());
+                }
+            }
+        });
+        let addr = rx
+            .recv_timeout(Duration::from_secs(60))
+            .expect("the monitor says where it listens");
+        let heard = std::sync::Arc::new(Mutex::new(String::new()));
+        let into = heard.clone();
+        std::thread::spawn(move || {
+            use std::io::{Read, Write};
+            let mut s = std::net::TcpStream::connect(&addr).unwrap();
+            write!(s, "GET /events HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+            let mut buf = [0u8; 8192];
+            while let Ok(n) = s.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                let text = String::from_utf8_lossy(&buf[..n]).to_string();
+                into.lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .push_str(&text);
+            }
+        });
+        Monitor {
+            _process: Processes(vec![("monitor".into(), child)]),
+            heard,
+        }
+    }
+
+    /// Whether the page was sent an event of `peer` of kind `event`.
+    fn heard(&self, peer: &str, event: &str) -> bool {
+        let heard = self.heard.lock().unwrap_or_else(|p| p.into_inner());
+        heard.lines().any(|l| {
+            l.starts_with("data: ")
+                && l.contains(&format!("\"drone\":\"{peer}\""))
+                && l.contains(&format!("\"event\":\"{event}\""))
+        })
+    }
+}
+
 #[test]
 fn experiment_b_flies_over_mutual_tls_with_one_process_per_peer() {
     let _serial = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
     let fleet = fleet_dir(&[]);
     let out = tempfile::tempdir().unwrap();
     let fleet_file = fleet.path().join("fleet.toml");
+    // A monitor that is no peer joins over TLS with the ground station's
+    // certificate, and hears what each peer does, not only where it is.
+    let monitor = Monitor::start(&fleet_file);
     let mut procs = Processes(Vec::new());
     for role in [
         &["--drone", "Drone1"][..],
@@ -192,6 +265,25 @@ fn experiment_b_flies_over_mutual_tls_with_one_process_per_peer() {
     }
     assert!(events(out.path(), "Drone1", "bridge_received") > 0);
     assert!(events(out.path(), "Drone2", "bridge_received") > 0);
+    // At 50 times real time the flight may be over before the monitor's
+    // connections are up: what it missed, it asks each peer for when it
+    // sees it (the latest marking, action and end).
+    let heard_all = || {
+        ["Drone1", "Drone2"].iter().all(|d| {
+            ["marking", "action_started", "stopped"]
+                .iter()
+                .all(|e| monitor.heard(d, e))
+        }) && monitor.heard("GCS", "marking")
+    };
+    let waited = Instant::now();
+    while !heard_all() && waited.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    assert!(
+        heard_all(),
+        "the monitor heard: {}",
+        monitor.heard.lock().unwrap_or_else(|p| p.into_inner())
+    );
 }
 
 #[test]

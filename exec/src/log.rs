@@ -229,11 +229,7 @@ fn write_all(root: &Path, rx: std_mpsc::Receiver<Line>, append: bool) -> Vec<Str
         let (path, text) = match line {
             Line::Mission(e) => (
                 root.join(format!("{}.mission.jsonl", e.drone)),
-                serde_json::to_string(&LineOut {
-                    v: MISSION_LOG_VERSION,
-                    event: &e,
-                })
-                .unwrap_or_default(),
+                line_of(&e).unwrap_or_default(),
             ),
             Line::Mid(d, r) => {
                 let kind = match r {
@@ -286,6 +282,30 @@ fn flush_all(files: &mut HashMap<PathBuf, Option<BufWriter<File>>>, errors: &mut
     }
 }
 
+/// One event as a line of the mission log (without its newline): the
+/// versioned JSON that the log files hold and that a peer publishes to the
+/// mission's observers. `None` only for an event JSON cannot hold.
+pub fn line_of(event: &Event) -> Option<String> {
+    serde_json::to_string(&LineOut {
+        v: MISSION_LOG_VERSION,
+        event,
+    })
+    .ok()
+}
+
+/// One line of a mission log read back: its event, or why it is not one
+/// this eamos reads.
+pub fn event_of(line: &str) -> Result<Event, String> {
+    let line: LineIn = serde_json::from_str(line).map_err(|e| e.to_string())?;
+    if line.v > MISSION_LOG_VERSION {
+        return Err(format!(
+            "a mission log of version {}, newer than this eamos reads ({MISSION_LOG_VERSION})",
+            line.v
+        ));
+    }
+    Ok(line.event)
+}
+
 /// Reads a mission log back (for tests and for tools that check runs).
 pub fn read_mission_log(path: &Path) -> Result<Vec<Event>, String> {
     let text = std::fs::read_to_string(path)
@@ -293,17 +313,7 @@ pub fn read_mission_log(path: &Path) -> Result<Vec<Event>, String> {
     text.lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty())
-        .map(|(i, l)| {
-            let at = format!("{}:{}", path.display(), i + 1);
-            let line: LineIn = serde_json::from_str(l).map_err(|e| format!("{at}: {e}"))?;
-            if line.v > MISSION_LOG_VERSION {
-                return Err(format!(
-                    "{at}: a mission log of version {}, newer than this eamos reads ({MISSION_LOG_VERSION})",
-                    line.v
-                ));
-            }
-            Ok(line.event)
-        })
+        .map(|(i, l)| event_of(l).map_err(|e| format!("{}:{}: {e}", path.display(), i + 1)))
         .collect()
 }
 

@@ -29,6 +29,7 @@ use crate::log::{LogWriter, WarningTap};
 use crate::svg::Paths;
 use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
+use crate::transport::publish;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
 use crate::transport::{zenoh, Endpoint, TransportError, GCS};
 use eamos_fleet::{AdapterKind, Fleet};
@@ -471,6 +472,11 @@ fn sample_telemetry(
     }
 }
 
+/// `events`, and `also` beside them.
+fn with_sink(events: Arc<dyn Sink>, also: Arc<dyn Sink>) -> Arc<dyn Sink> {
+    Arc::new(Tee::new(vec![events, also]))
+}
+
 /// Where a run's events go: its mission logs, the plot's paths and
 /// whoever else `options` names.
 fn run_sink(logs: &LogWriter, paths: &Arc<Paths>, options: &RunOptions) -> Arc<dyn Sink> {
@@ -630,7 +636,10 @@ pub async fn run_peer(
     let airframes = recorded_airframes(&drones, &journals, options)?;
     let profile_of = |d: &str| (d == peer).then(|| slice.profile.clone()).flatten();
     let paths = Arc::new(Paths::default());
-    let events = run_sink(&logs, &paths, options);
+    // What this peer does, for observers of the mission's network (a
+    // monitor that is no peer): published once the link is open.
+    let (published, outbox) = publish::outbox();
+    let events = with_sink(run_sink(&logs, &paths, options), published);
     let built = build_adapters(
         &slice.drones,
         &profile_of,
@@ -664,6 +673,7 @@ pub async fn run_peer(
     )
     .await
     .map(|e| partitioned(e, options))?;
+    tokio::spawn(publish::drain(outbox, e.link.clone()));
     let journal = journals.get(peer);
     let (b, delivered) = start_bridges(
         &slice.mission_id,

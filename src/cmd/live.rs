@@ -61,7 +61,8 @@ pub async fn start(
 }
 
 /// Joins `mission`'s zenoh network as a read-only observer feeding
-/// `feed`: each drone's telemetry and which peers are up (see
+/// `feed`: each drone's telemetry, each peer's events and which peers are
+/// up (see
 /// `eamos_exec::transport::observe`).
 pub async fn observe(
     mission: &Mission,
@@ -71,9 +72,14 @@ pub async fn observe(
     let peers = eamos_exec::runner::peers(&mission.slices);
     // Named as no peer is, it connects to every peer's endpoints (the
     // ground station's too) or to the fleet's routers.
-    let options = mission
-        .fleet
-        .zenoh_options(id, &peers, eamos_exec::transport::observe::OBSERVER);
+    let mut options =
+        mission
+            .fleet
+            .zenoh_options(id, &peers, eamos_exec::transport::observe::OBSERVER);
+    // Over TLS it shows the ground station's certificate: the monitor runs
+    // where the ground station does, and its abort is the ground
+    // station's too.
+    options.tls = mission.fleet.tls_files(eamos_exec::transport::GCS);
     let sink: std::sync::Arc<dyn eamos_exec::event::Sink> = std::sync::Arc::new(feed.clone());
     eamos_exec::transport::observe::observe(id, &options, sink)
         .await

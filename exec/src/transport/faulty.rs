@@ -219,6 +219,20 @@ impl Link for FaultyLink {
         self.inner.publish_telemetry(sample).await
     }
 
+    async fn publish_event(
+        &self,
+        line: Vec<u8>,
+        state: Option<&'static str>,
+    ) -> Result<(), TransportError> {
+        let me = self.inner.me();
+        if let Some(p) = &self.partition {
+            if p.cut.borrow().contains(me) {
+                return Ok(());
+            }
+        }
+        self.inner.publish_event(line, state).await
+    }
+
     async fn wait_for_peers(
         &self,
         peers: &[PeerId],

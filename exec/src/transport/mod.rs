@@ -24,6 +24,7 @@ use eamos_petri::net::Colour;
 pub mod faulty;
 pub mod inproc;
 pub mod observe;
+pub mod publish;
 pub mod reliable;
 pub mod zenoh;
 
@@ -165,6 +166,22 @@ pub trait Link: Send + Sync + 'static {
 
     /// Publishes this drone's telemetry to every peer subscribed to it.
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError>;
+
+    /// Publishes one of this peer's events (a mission log line, see
+    /// [`publish`]) to whoever observes the mission, if anyone: a monitor
+    /// that is not a peer. With a `state` slot (`marking`, the current
+    /// action...) the line is also kept as the latest of its slot, handed
+    /// to an observer that joins later and asks (`<peer>/state`). A link
+    /// whose peers share one process has no such observer; their events
+    /// reach a monitor through its sink.
+    async fn publish_event(
+        &self,
+        line: Vec<u8>,
+        state: Option<&'static str>,
+    ) -> Result<(), TransportError> {
+        let _ = (line, state);
+        Ok(())
+    }
 
     /// Waits until every peer in `peers` is reachable, so that the first
     /// token of a mission is not sent into the void (retransmission would

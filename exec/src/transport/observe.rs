@@ -1,7 +1,8 @@
 //! A read-only observer of a mission's zenoh network (`eamos monitor`):
-//! it hears every drone's telemetry and every peer's liveliness token and
-//! says what it heard as the executor's own events (telemetry samples,
-//! peers lost and back), into a sink.
+//! it hears every drone's telemetry, every peer's own events (markings,
+//! actions, tokens, what it saw lost: [`super::publish`]) and every peer's
+//! liveliness token, and says what it heard as the executor's own events
+//! into a sink.
 //!
 //! Architecture Invariant: the peers never depend on an observer. It
 //! declares no liveliness token (nobody waits for it, no drone counts it
@@ -74,8 +75,46 @@ pub async fn observe(
             .await
             .map_err(|e| TransportError::Open(e.to_string()))?
     };
+    // The latest mission time heard of each peer's state slot: a peer's
+    // state, asked for when it is first seen, is not shown where its
+    // events went further.
+    let heard: Arc<Mutex<Heard>> = Arc::default();
+    let events = {
+        let (sink, last_time, heard) = (sink.clone(), last_time.clone(), heard.clone());
+        session
+            .declare_subscriber(format!("eamos/{mission}/*/events"))
+            .callback(move |sample| {
+                let bytes = sample.payload().to_bytes();
+                // A line of a later version, or garbage, is not shown.
+                let Some(e) = std::str::from_utf8(&bytes)
+                    .ok()
+                    .and_then(|l| crate::log::event_of(l).ok())
+                else {
+                    return;
+                };
+                {
+                    let mut last = last_time.lock().unwrap_or_else(|p| p.into_inner());
+                    *last = last.max(e.time);
+                }
+                if let Some(slot) = super::publish::slot(&e.kind) {
+                    let mut heard = heard.lock().unwrap_or_else(|p| p.into_inner());
+                    let t = heard.entry((e.drone.clone(), slot)).or_insert(e.time);
+                    *t = t.max(e.time);
+                }
+                sink.event(&e);
+            })
+            .await
+            .map_err(|e| TransportError::Open(e.to_string()))?
+    };
     // Whether each peer seen so far is up.
     let seen: Arc<Mutex<BTreeMap<String, bool>>> = Arc::default();
+    let ask = StateAsker {
+        session: session.clone(),
+        mission: mission.to_string(),
+        runtime: tokio::runtime::Handle::current(),
+        sink: sink.clone(),
+        heard,
+    };
     let liveliness = session
         .liveliness()
         .declare_subscriber(format!("eamos/{mission}/*/alive"))
@@ -89,6 +128,9 @@ pub async fn observe(
             let peer = peer.to_string();
             let up = sample.kind() == SampleKind::Put;
             let before = seen.insert(peer.clone(), up);
+            if up && before != Some(true) {
+                ask.state_of(&peer);
+            }
             let kind = match (before, up) {
                 (Some(false), true) => Kind::PeerBack { peer },
                 (Some(true), false) => Kind::PeerLost { peer },
@@ -105,7 +147,64 @@ pub async fn observe(
         .map_err(|e| TransportError::Open(e.to_string()))?;
     Ok(Observer {
         session,
-        _subscribers: vec![telemetry],
+        _subscribers: vec![telemetry, events],
         _liveliness: liveliness,
     })
+}
+
+/// Asks a peer, when it is seen up, for its latest state (marking, action,
+/// end: [`super::publish`]), so that a monitor started during a flight, or
+/// that joined a peer after its first events, shows where it is.
+struct StateAsker {
+    session: Session,
+    mission: String,
+    runtime: tokio::runtime::Handle,
+    sink: Arc<dyn Sink>,
+    heard: Arc<Mutex<Heard>>,
+}
+
+/// The latest mission time heard, by peer and state slot.
+type Heard = BTreeMap<(String, &'static str), f64>;
+
+impl StateAsker {
+    fn state_of(&self, peer: &str) {
+        let at = super::zenoh::key(&self.mission, peer, "state");
+        let (session, sink, heard) = (self.session.clone(), self.sink.clone(), self.heard.clone());
+        self.runtime.spawn(async move {
+            // Every slot is a reply on the same key: none may be
+            // consolidated away.
+            let asked = session
+                .get(at)
+                .consolidation(zenoh::query::ConsolidationMode::None);
+            let Ok(replies) = asked.await else {
+                return;
+            };
+            let mut kept = Vec::new();
+            while let Ok(reply) = replies.recv_async().await {
+                let Ok(sample) = reply.result() else {
+                    continue;
+                };
+                let bytes = sample.payload().to_bytes();
+                if let Some(e) = std::str::from_utf8(&bytes)
+                    .ok()
+                    .and_then(|l| crate::log::event_of(l).ok())
+                {
+                    kept.push(e);
+                }
+            }
+            kept.sort_by(|a, b| a.time.total_cmp(&b.time));
+            for e in kept {
+                let newer = super::publish::slot(&e.kind).is_some_and(|slot| {
+                    heard
+                        .lock()
+                        .unwrap_or_else(|p| p.into_inner())
+                        .get(&(e.drone.clone(), slot))
+                        .is_some_and(|&t| t > e.time)
+                });
+                if !newer {
+                    sink.event(&e);
+                }
+            }
+        });
+    }
 }

@@ -7,6 +7,8 @@
 //! | `eamos/<mission>/<peer>/bridge` | tokens addressed to `peer` |
 //! | `eamos/<mission>/<peer>/ack` | acknowledgements addressed to `peer` |
 //! | `eamos/<mission>/<drone>/telemetry` | the state of `drone`, for remote conditions |
+//! | `eamos/<mission>/<peer>/events` | `peer`'s events as mission log lines, for observers (no peer subscribes) |
+//! | `eamos/<mission>/<peer>/state` | queryable: `peer`'s latest marking, action and end, for an observer that joins late |
 //! | `eamos/<mission>/<peer>/alive` | liveliness token: `peer` is up |
 //! | `eamos/<mission>/<peer>/ready` | liveliness token: `peer` sees every peer it exchanges tokens or telemetry with |
 //!
@@ -22,7 +24,7 @@
 //! links are then refused at both ends (zenoh's protocol whitelist holds
 //! only `tls`), so a misconfigured peer cannot fall back to clear text.
 
-use std::collections::{BTreeSet, HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
@@ -288,6 +290,26 @@ pub async fn open(
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
     let version = announce_version(&session, mission, me, alive.clone()).await?;
+    let state: Arc<Mutex<BTreeMap<&'static str, Vec<u8>>>> = Arc::default();
+    let state_queryable = {
+        let (state, at) = (state.clone(), key(mission, me, "state"));
+        session
+            .declare_queryable(at.clone())
+            .callback(move |query| {
+                let kept: Vec<Vec<u8>> = state
+                    .lock()
+                    .unwrap_or_else(|p| p.into_inner())
+                    .values()
+                    .cloned()
+                    .collect();
+                for line in kept {
+                    use zenoh::Wait;
+                    let _ = query.reply(at.clone(), line).wait();
+                }
+            })
+            .await
+            .map_err(|e| TransportError::Open(e.to_string()))?
+    };
 
     let link = ZenohLink {
         me: me.to_string(),
@@ -302,6 +324,8 @@ pub async fn open(
         _token: token,
         _version: version,
         presence,
+        state,
+        _state_queryable: state_queryable,
     };
     Ok(Endpoint {
         link: Arc::new(link),
@@ -353,6 +377,10 @@ struct ZenohLink {
     ready: tokio::sync::Mutex<Ready>,
     _token: LivelinessToken,
     _version: Option<(LivelinessToken, Subscriber<()>)>,
+    /// The latest of this peer's events by slot, for observers that ask
+    /// (see [`Link::publish_event`]).
+    state: Arc<Mutex<BTreeMap<&'static str, Vec<u8>>>>,
+    _state_queryable: zenoh::query::Queryable<()>,
 }
 
 impl ZenohLink {
@@ -435,6 +463,18 @@ impl Link for ZenohLink {
             sample.encode(),
         )
         .await
+    }
+
+    async fn publish_event(
+        &self,
+        line: Vec<u8>,
+        state: Option<&'static str>,
+    ) -> Result<(), TransportError> {
+        if let Some(slot) = state {
+            let mut kept = self.state.lock().unwrap_or_else(|p| p.into_inner());
+            kept.insert(slot, line.clone());
+        }
+        self.put(key(&self.mission, &self.me, "events"), line).await
     }
 
     async fn wait_for_peers(
