@@ -128,6 +128,14 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
     );
 
     changed(&b, MARKERS, "a drone's marker moves");
+    // The page times each event from the monitor's stamp to its handler
+    // and to the frame drawn (what the monitor's benchmark reports).
+    let latency = b.eval("return EamosLive.latency(window.eamosView);");
+    assert!(
+        latency["handled"]["count"].as_u64() > Some(0)
+            && latency["handled"]["p50"].as_f64().is_some_and(|ms| ms >= 0.0),
+        "{latency}"
+    );
     assert!(
         b.count("#plan .trail") >= 1,
         "a trail behind a moving drone"

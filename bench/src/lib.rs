@@ -20,6 +20,7 @@ mod corpus;
 mod files;
 mod fleet;
 mod lsp;
+mod monitor;
 mod probe;
 mod process;
 mod table;
@@ -47,6 +48,9 @@ pub struct Options {
     /// The fleets flown one process per drone, by their numbers of drones
     /// (once each: a fleet is a hundred processes, not one).
     pub fleets: Vec<usize>,
+    /// The live monitor: how many simulated drones, and for how long it is
+    /// measured after its warm-up (`None`: not measured).
+    pub monitor: Option<(usize, std::time::Duration)>,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -100,6 +104,16 @@ pub fn report(options: &Options) -> Result<String, String> {
         eprintln!("flying {drones} drones, one process each, through a zenoh router...");
         fleets.push(fleet::measure(&exe, &dir, drones)?);
     }
+    let monitor = match options.monitor {
+        Some((drones, span)) => {
+            eprintln!(
+                "watching {drones} drones on the live monitor in Chromium for {} s...",
+                span.as_secs()
+            );
+            Some(monitor::measure(&exe, &dir, drones, span)?)
+        }
+        None => None,
+    };
     Ok(table::table(&table::Measured {
         results: &results,
         facts: &facts,
@@ -114,6 +128,7 @@ pub fn report(options: &Options) -> Result<String, String> {
         lsp,
         corpus,
         fleets,
+        monitor,
     }))
 }
 

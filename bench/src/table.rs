@@ -38,6 +38,9 @@ mod goal {
     /// 23), and each process stays under `FLEET_PROCESS_MB`.
     pub const FLEET_START_S: f64 = 10.0;
     pub const FLEET_PROCESS_MB: f64 = 20.0;
+    /// From a drone's event to the monitor's page, 99th percentile (issue
+    /// 15).
+    pub const MONITOR_P99_MS: f64 = 100.0;
 }
 
 /// How far a proof of the `check` probe went.
@@ -112,6 +115,9 @@ pub struct Measured<'a> {
     pub corpus: Vec<(crate::corpus::Entry, Option<crate::corpus::Checked>)>,
     /// Fleets flown one process per drone.
     pub fleets: Vec<crate::fleet::FleetRun>,
+    /// The live monitor under load: `None` not asked, `Some(None)` no
+    /// browser here.
+    pub monitor: Option<Option<crate::monitor::MonitorRun>>,
 }
 
 /// One row of the table.
@@ -576,6 +582,9 @@ pub fn table(m: &Measured) -> String {
     for f in &m.fleets {
         rows.extend(fleet_rows(f));
     }
+    if let Some(monitor) = &m.monitor {
+        rows.extend(monitor_rows(monitor.as_ref()));
+    }
 
     let mut out = String::new();
     out.push_str("| measurement | eamos | paper | baseline | goal | met |\n");
@@ -587,6 +596,58 @@ pub fn table(m: &Measured) -> String {
         ));
     }
     out
+}
+
+/// The rows of the live monitor under load.
+fn monitor_rows(m: Option<&crate::monitor::MonitorRun>) -> Vec<Row> {
+    let Some(m) = m else {
+        return vec![row(
+            "live monitor: from an event to the page",
+            format!("{MISSING} (no chromium and chromedriver here)"),
+        )
+        .goal(format!("p99 ≤ {} ms", goal::MONITOR_P99_MS), None)];
+    };
+    let what = format!(
+        "live monitor, {} simulated drones at 10 Hz in one `eamos run`, its page in headless Chromium, {:.0} s after a warm-up",
+        m.drones,
+        m.measured.as_secs_f64()
+    );
+    let said = |l: &crate::monitor::Latency| {
+        format!(
+            "p50 {:.1} ms, p99 {:.1} ms, max {:.0} ms ({} events)",
+            l.p50, l.p99, l.max, l.count
+        )
+    };
+    let size = |p: &crate::monitor::PageSize| {
+        format!(
+            "{:.1} MB of live heap, {} elements",
+            p.heap_bytes as f64 / 1e6,
+            p.elements
+        )
+    };
+    vec![
+        row(
+            format!("{what}: from an event to the page's handler"),
+            said(&m.handled),
+        )
+        .goal(
+            format!("p99 ≤ {} ms", goal::MONITOR_P99_MS),
+            Some(m.handled.count > 0 && m.handled.p99 <= goal::MONITOR_P99_MS),
+        ),
+        row(
+            format!("{what}: from an event to the frame that shows it"),
+            said(&m.painted),
+        ),
+        row(
+            format!("{what}: the page's size, at the start and at the end"),
+            format!(
+                "{}; then {} (largest heap seen {:.1} MB)",
+                size(&m.start),
+                size(&m.end),
+                m.largest_heap_bytes as f64 / 1e6
+            ),
+        ),
+    ]
 }
 
 /// The rows of one fleet flown one process per drone.
@@ -635,6 +696,42 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_monitor_not_measured_says_why_and_meets_no_goal() {
+        let rows = monitor_rows(None);
+        assert_eq!(rows.len(), 1);
+        assert!(rows[0].eamos.contains("no chromium"), "{}", rows[0].eamos);
+        assert_eq!(rows[0].met, MISSING);
+    }
+
+    #[test]
+    fn a_monitor_meets_its_goal_only_with_a_p99_within_it() {
+        let latency = |p99: f64| crate::monitor::Latency {
+            count: 1000,
+            p50: 5.0,
+            p99,
+            max: p99 + 1.0,
+        };
+        let size = crate::monitor::PageSize {
+            heap_bytes: 3_000_000,
+            elements: 100,
+        };
+        let run = |p99: f64| crate::monitor::MonitorRun {
+            drones: 100,
+            measured: Duration::from_secs(600),
+            handled: latency(p99),
+            painted: latency(p99),
+            start: size,
+            end: size,
+            largest_heap_bytes: 3_000_000,
+        };
+        assert_eq!(monitor_rows(Some(&run(99.0)))[0].met, "met");
+        assert_eq!(monitor_rows(Some(&run(101.0)))[0].met, "not met");
+        assert!(monitor_rows(Some(&run(99.0)))[2]
+            .eamos
+            .contains("3.0 MB of live heap"));
+    }
 
     #[test]
     fn a_linear_series_has_growth_exponent_one_and_a_quadratic_two() {

@@ -83,12 +83,29 @@ impl Feed {
     }
 }
 
+/// The event's JSON (the mission log's form) with `sent`, the wall clock
+/// (milliseconds since the Unix epoch) at which the monitor got it: the
+/// page tells from it how long an event took to reach its screen (the
+/// monitor's latency benchmark reads that).
+fn stamped(e: &Event) -> Option<String> {
+    let mut json = serde_json::to_string(e).ok()?;
+    let sent = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .ok()?
+        .as_secs_f64()
+        * 1000.0;
+    // An event is a JSON object: its closing brace makes room for one more.
+    json.pop().filter(|&c| c == '}')?;
+    json.push_str(&format!(",\"sent\":{sent:.3}}}"));
+    Some(json)
+}
+
 impl Sink for Feed {
     fn event(&self, e: &Event) {
         if e.kind.is_rollout() {
             return;
         }
-        let Ok(json) = serde_json::to_string(e) else {
+        let Some(json) = stamped(e) else {
             return;
         };
         let frame = {
@@ -149,6 +166,9 @@ mod tests {
         let frames = feed.catch_up();
         assert_eq!(frames.len(), 2, "{frames:?}");
         assert!(frames[0].json.contains("\"time\":999.0"));
+        let page: serde_json::Value = serde_json::from_str(&frames[1].json).unwrap();
+        assert_eq!(page["peer"], "D1", "the event as the log writes it");
+        assert!(page["sent"].as_f64().unwrap() > 1.7e12, "stamped: {page}");
         assert!(frames[1].json.contains("peer_lost"));
         assert!(frames[0].seq < frames[1].seq);
     }

@@ -229,7 +229,7 @@ mod tests {
         assert!(events.contains("text/event-stream"), "{events}");
         assert!(
             events.contains(
-                r#"data: {"time":1.0,"drone":"GCS","event":"peer_lost","peer":"Drone2"}"#
+                r#"data: {"time":1.0,"drone":"GCS","event":"peer_lost","peer":"Drone2","sent":"#
             ),
             "{events}"
         );

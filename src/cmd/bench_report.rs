@@ -33,6 +33,16 @@ pub struct Args {
         default_value = "50"
     )]
     pub fleets: Vec<usize>,
+    /// How many simulated drones fly under the live monitor while its page,
+    /// in headless Chromium, measures how long events take to reach it (0:
+    /// not measured).
+    #[arg(long, value_name = "N", default_value_t = 100)]
+    pub monitor_drones: usize,
+    /// How long the monitor's page is measured, after a warm-up, in
+    /// seconds. The default keeps a CI run short; the figure of a long
+    /// flight is `--monitor-seconds 600`.
+    #[arg(long, value_name = "S", default_value_t = 30)]
+    pub monitor_seconds: u64,
     /// Measure one process and exit: `idle`, `compile MISSION` or `start
     /// SLICE` (the report runs itself this way).
     #[arg(long, hide = true, num_args = 1..=2, value_names = ["WHAT", "FILE"])]
@@ -49,6 +59,12 @@ pub fn run(args: Args) -> ExitCode {
         repeat: args.repeat,
         full_corpus: args.full_corpus,
         fleets: args.fleets,
+        monitor: (args.monitor_drones > 0).then(|| {
+            (
+                args.monitor_drones,
+                std::time::Duration::from_secs(args.monitor_seconds),
+            )
+        }),
     };
     match eamos_bench::report(&options) {
         Ok(table) => {

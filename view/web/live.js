@@ -196,6 +196,60 @@ var EamosLive = (function () {
     }
   }
 
+  // How long events take from the monitor to this page (`sent`, stamped
+  // by the server's feed): once handled, and once the frame that shows
+  // them is drawn. Histograms of half-milliseconds of a fixed size, so
+  // that measuring does not grow the page's memory however long it runs;
+  // the monitor's latency benchmark reads them (`EamosLive.latency`).
+  var BUCKET = 0.5, BUCKETS = 10000;
+  function Histogram() { this.counts = new Uint32Array(BUCKETS + 1); this.n = 0; this.max = 0; }
+  Histogram.prototype.add = function (ms) {
+    this.counts[Math.min(BUCKETS, Math.max(0, Math.floor(ms / BUCKET)))]++;
+    this.n++;
+    if (ms > this.max) this.max = ms;
+  };
+  Histogram.prototype.quantile = function (q) {
+    if (!this.n) return null;
+    var want = Math.ceil(q * this.n), seen = 0;
+    for (var i = 0; i < BUCKETS; i++) {
+      seen += this.counts[i];
+      if (seen >= want) return (i + 1) * BUCKET;
+    }
+    return this.max;
+  };
+  Histogram.prototype.summary = function () {
+    return { count: this.n, p50: this.quantile(0.5), p99: this.quantile(0.99), max: this.max };
+  };
+
+  function clock() { return performance.timeOrigin + performance.now(); }
+
+  function latencies(view) {
+    if (!view.latency) view.latency = { handled: new Histogram(), painted: new Histogram(), pending: [], frame: false };
+    return view.latency;
+  }
+
+  function measure(view, sent) {
+    var l = latencies(view);
+    l.handled.add(clock() - sent);
+    if (l.pending.length < 100000) l.pending.push(sent);
+    if (l.frame) return;
+    l.frame = true;
+    requestAnimationFrame(function () {
+      var t = clock();
+      l.pending.forEach(function (s) { l.painted.add(t - s); });
+      l.pending = [];
+      l.frame = false;
+    });
+  }
+
+  // What was measured so far; `reset` starts again (after a warm-up).
+  function latency(view, reset) {
+    var l = latencies(view);
+    var said = { handled: l.handled.summary(), painted: l.painted.summary() };
+    if (reset) { l.handled = new Histogram(); l.painted = new Histogram(); }
+    return said;
+  }
+
   function attach(view) {
     var drawn = view.update;
     view.update = function (event) {
@@ -208,7 +262,9 @@ var EamosLive = (function () {
   function connect(view, url) {
     var source = new EventSource(url);
     source.onmessage = function (m) {
-      view.update(JSON.parse(m.data));
+      var event = JSON.parse(m.data);
+      view.update(event);
+      if (typeof event.sent === "number") measure(view, event.sent);
     };
     source.onopen = function () { panel(view).status.textContent = "live: connected"; };
     source.onerror = function () {
@@ -218,5 +274,5 @@ var EamosLive = (function () {
     return source;
   }
 
-  return { attach: attach, connect: connect };
+  return { attach: attach, connect: connect, latency: latency };
 })();
