@@ -73,6 +73,11 @@ pub fn start_monitored(args: &[&str]) -> (Killed, String) {
     (Killed(child), url)
 }
 
+/// Where the drones' markers are over the plan.
+const PLAN_MARKERS: &str =
+    "return Array.from(document.querySelectorAll('#plan circle.live-drone'))\
+    .map(m => m.getAttribute('cx') + ',' + m.getAttribute('cy')).join(' ');";
+
 /// The text of every drone's current action, in order.
 const ACTIONS: &str = "return Array.from(document.querySelectorAll('#drones-live td.action'))\
     .map(e => e.textContent).join('|');";
@@ -133,7 +138,9 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
     let latency = b.eval("return EamosLive.latency(window.eamosView);");
     assert!(
         latency["handled"]["count"].as_u64() > Some(0)
-            && latency["handled"]["p50"].as_f64().is_some_and(|ms| ms >= 0.0),
+            && latency["handled"]["p50"]
+                .as_f64()
+                .is_some_and(|ms| ms >= 0.0),
         "{latency}"
     );
     assert!(
@@ -142,6 +149,9 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
     );
     screenshot(&b, None, "monitor-experiment-c.png");
 
+    // Over the plan too, where its trail is drawn behind it (the marker,
+    // not the trail, is what moves).
+    changed(&b, PLAN_MARKERS, "a drone's marker moves over the plan");
     changed(&b, ACTIONS, "a drone's current action changes");
     screenshot(&b, Some("#live"), "monitor-experiment-c-live.png");
 

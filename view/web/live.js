@@ -100,20 +100,24 @@ var EamosLive = (function () {
     r.tr.className = cls || "";
   }
 
+  // The trail behind a drone: its last TRAIL positions, one point added
+  // (and the oldest dropped) per sample rather than the line written
+  // again, so that a hundred drones' samples cost the page little.
   function trail(view, live, event) {
-    var i = view.model.drones.findIndex(function (d) { return d.name === event.drone; });
+    var i = EamosView.droneIndex(view, event.drone);
     if (i < 0) return;
-    var p = event.position, at = [p.x, p.y, p.z];
-    var pts = live.trails[i] = live.trails[i] || [];
-    pts.push(at);
-    if (pts.length > TRAIL) pts.shift();
-    var g = view.plan.svg.querySelector("g.live");
-    var path = g.querySelector('polyline[data-drone="' + i + '"]');
+    var p = event.position, q = view.plan.at([p.x, p.y, p.z]);
+    var path = live.trails[i];
     if (!path) {
-      path = el(SVG, "polyline", { "class": "trail", "data-drone": i, stroke: view.model.drones[i].colour }, null);
+      path = live.trails[i] = el(SVG, "polyline", { "class": "trail", "data-drone": i, stroke: view.model.drones[i].colour, points: "" }, null);
+      var g = view.plan.svg.querySelector("g.live");
       g.insertBefore(path, g.firstChild);
     }
-    path.setAttribute("points", pts.map(function (q) { return view.plan.at(q).join(","); }).join(" "));
+    var point = view.plan.svg.createSVGPoint();
+    point.x = q[0];
+    point.y = q[1];
+    path.points.appendItem(point);
+    if (path.points.numberOfItems > TRAIL) path.points.removeItem(0);
   }
 
   // The closest two drones now, sampled at most twice a mission second.

@@ -404,16 +404,30 @@ var EamosView = (function () {
   }
 
   // Live changes, for a monitor: see the top of this file.
+  // A drone's index in the model, by name (a live page looks it up for
+  // every sample: a hundred drones send a thousand a second).
+  function droneIndex(view, name) {
+    if (!view.index) {
+      view.index = {};
+      view.model.drones.forEach(function (d, i) { view.index[d.name] = i; });
+    }
+    var i = view.index[name];
+    return i === undefined ? -1 : i;
+  }
+
   function update(view, event) {
     var model = view.model;
-    var i = model.drones.findIndex(function (d) { return d.name === event.drone; });
+    var i = droneIndex(view, event.drone);
     if (event.event === "telemetry" && i >= 0 && event.position) {
       // The fleet frame, as the homes and legs are drawn.
       var p = event.position, at = [p.x, p.y, p.z];
       [view.plan, view.side].forEach(function (v) {
-        var live = v.svg.querySelector("g.live");
-        var dot = live.querySelector('[data-drone="' + i + '"]');
-        if (!dot) dot = svg("circle", { "class": "live-drone", "data-drone": i, r: 6, fill: model.drones[i].colour }, live);
+        v.dots = v.dots || {};
+        var dot = v.dots[i];
+        if (!dot) {
+          dot = v.dots[i] = svg("circle", { "class": "live-drone", "data-drone": i, r: 6, fill: model.drones[i].colour },
+            v.svg.querySelector("g.live"));
+        }
         var q = v.at(at);
         dot.setAttribute("cx", q[0]);
         dot.setAttribute("cy", q[1]);
@@ -432,5 +446,5 @@ var EamosView = (function () {
     }
   }
 
-  return { render: render, update: update };
+  return { render: render, update: update, droneIndex: droneIndex };
 })();
