@@ -336,7 +336,6 @@ fn deadlock_alone(
     }
     let dfs = "depth-first search for a deadlock, stubborn sets";
     let report = |ctx: &mut Ctx, ex: &Exploration, method: &str| {
-        let ctx = std::mem::replace(ctx, ctx.empty());
         ctx.deadlock_only(name.to_string(), pt, ex, method)
     };
     let mut quick = None;
@@ -395,19 +394,6 @@ fn result(property: Property, verdict: Verdict, method: impl Into<String>) -> Pr
 }
 
 impl Ctx {
-    /// A context with this one's input kind and nothing else.
-    fn empty(&self) -> Ctx {
-        Ctx {
-            input: self.input,
-            running: HashMap::new(),
-            starts: Vec::new(),
-            loops: Vec::new(),
-            waits: Vec::new(),
-            findings: Vec::new(),
-            properties: Vec::new(),
-        }
-    }
-
     fn mission(&self) -> bool {
         self.input == InputKind::Mission
     }
@@ -1022,7 +1008,7 @@ impl Ctx {
     /// counterexample), proved absent (the search ran to its end), or
     /// undecided.
     fn deadlock_only(
-        mut self,
+        &mut self,
         name: String,
         net: &PtNet,
         ex: &Exploration,
@@ -1047,8 +1033,9 @@ impl Ctx {
         report
     }
 
+    /// The report of what this context gathered, which it hands over.
     fn finish(
-        mut self,
+        &mut self,
         name: String,
         net: &PtNet,
         ex: &Exploration,
@@ -1062,8 +1049,8 @@ impl Ctx {
         Report {
             name,
             input: self.input,
-            properties: self.properties,
-            findings: self.findings,
+            properties: std::mem::take(&mut self.properties),
+            findings: std::mem::take(&mut self.findings),
             limits: Vec::new(),
             stats: Stats {
                 places: net.n_places(),
