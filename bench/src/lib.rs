@@ -47,6 +47,9 @@ pub struct Options {
     /// The fleets flown one process per drone, by their numbers of drones
     /// (once each: a fleet is a hundred processes, not one).
     pub fleets: Vec<usize>,
+    /// Fly the fleets and report them alone, without the benchmarks and
+    /// the other probes.
+    pub fleets_only: bool,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -60,6 +63,15 @@ pub fn report(options: &Options) -> Result<String, String> {
     // not be this one.
     let dir = std::path::absolute(&options.dir)
         .map_err(|e| format!("cannot resolve {}: {e}", options.dir.display()))?;
+    if options.fleets_only {
+        let exe = this_program()?;
+        let mut fleets = Vec::new();
+        for &drones in &options.fleets {
+            eprintln!("flying {drones} drones, one process each, through a zenoh router...");
+            fleets.push(fleet::measure(&exe, &dir, drones)?);
+        }
+        return Ok(table::fleet_table(&fleets));
+    }
     let criterion = dir.join("criterion");
     if !options.no_run {
         run_benches(&criterion)?;

@@ -33,6 +33,10 @@ pub struct Args {
         default_value = "50"
     )]
     pub fleets: Vec<usize>,
+    /// Fly the fleets (`--fleets`) and report them alone: no benchmarks,
+    /// no other probes.
+    #[arg(long)]
+    pub fleets_only: bool,
     /// Measure one process and exit: `idle`, `compile MISSION` or `start
     /// SLICE` (the report runs itself this way).
     #[arg(long, hide = true, num_args = 1..=2, value_names = ["WHAT", "FILE"])]
@@ -49,6 +53,7 @@ pub fn run(args: Args) -> ExitCode {
         repeat: args.repeat,
         full_corpus: args.full_corpus,
         fleets: args.fleets,
+        fleets_only: args.fleets_only,
     };
     match eamos_bench::report(&options) {
         Ok(table) => {
