@@ -5,7 +5,9 @@
 //! `[zenoh] routers`), as a crew would start them. Measured: from the
 //! launch to the mission's start (the ground station's first token, sent
 //! once every drone is ready), from the launch to the last process's exit,
-//! and the peak resident set of each process.
+//! the peak resident set of each process and, sampled, the peak of its
+//! private (anonymous) memory: most of a resident set is the program's
+//! code, mapped from one file and shared by every process of the fleet.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -36,6 +38,57 @@ pub struct FleetRun {
     pub drone_max_kib: u64,
     pub drone_median_kib: u64,
     pub gcs_kib: u64,
+    /// Peak private (anonymous) memory in KiB, sampled every
+    /// [`SAMPLE`]: of the largest drone process, of the median one and of
+    /// the ground station (0: not measured).
+    pub drone_private_max_kib: u64,
+    pub drone_private_median_kib: u64,
+    pub gcs_private_kib: u64,
+}
+
+/// How often the private memory of every process is read (a few
+/// microseconds a process: `/proc/PID/status` keeps counters).
+const SAMPLE: Duration = Duration::from_millis(500);
+
+/// The process that does the work: the child of GNU `time` when it
+/// measures, else the process itself.
+#[cfg(target_os = "linux")]
+fn worker(pid: u32, timed: bool) -> Option<u32> {
+    if !timed {
+        return Some(pid);
+    }
+    std::fs::read_to_string(format!("/proc/{pid}/task/{pid}/children"))
+        .ok()?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Private memory of a running process, in KiB.
+#[cfg(target_os = "linux")]
+fn private_kib(pid: u32) -> Option<u64> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+    let field = |name: &str| -> Option<u64> {
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix(name))?
+            .split_whitespace()
+            .next()?
+            .parse()
+            .ok()
+    };
+    Some(field("RssAnon:")? + field("RssShmem:").unwrap_or(0))
+}
+
+#[cfg(not(target_os = "linux"))]
+fn worker(_pid: u32, _timed: bool) -> Option<u32> {
+    None
+}
+
+#[cfg(not(target_os = "linux"))]
+fn private_kib(_pid: u32) -> Option<u64> {
+    None
 }
 
 /// Processes (each the leader of its own process group, with GNU `time`
@@ -173,7 +226,26 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
 
     let mut to_start = None;
     let mut statuses = vec![None; peers.0.len()];
+    let mut private = vec![0u64; peers.0.len()];
+    let mut workers: Vec<Option<u32>> = vec![None; peers.0.len()];
+    let mut sampled = Instant::now() - SAMPLE;
     while launched.elapsed() < LIMIT {
+        if sampled.elapsed() >= SAMPLE {
+            sampled = Instant::now();
+            for ((c, w), p) in peers
+                .0
+                .iter()
+                .zip(workers.iter_mut())
+                .zip(private.iter_mut())
+            {
+                if w.is_none() {
+                    *w = worker(c.id(), timed);
+                }
+                if let Some(kib) = w.and_then(private_kib) {
+                    *p = (*p).max(kib);
+                }
+            }
+        }
         if to_start.is_none()
             && std::fs::read_to_string(&gcs_log)
                 .is_ok_and(|t| t.contains("\"event\":\"bridge_sent\""))
@@ -202,7 +274,13 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         .map(|k| peak_kib(&peak(&format!("D{k}"))))
         .collect();
     peaks.sort_unstable();
+    // The ground station is the last process.
+    let gcs_private_kib = private.pop().unwrap_or(0);
+    private.sort_unstable();
     Ok(FleetRun {
+        drone_private_max_kib: private.last().copied().unwrap_or(0),
+        drone_private_median_kib: private.get(private.len() / 2).copied().unwrap_or(0),
+        gcs_private_kib,
         drones,
         to_start,
         to_end,

@@ -51,6 +51,11 @@ pub struct Options {
     /// The live monitor: how many simulated drones, and for how long it is
     /// measured after its warm-up (`None`: not measured).
     pub monitor: Option<(usize, std::time::Duration)>,
+    /// Fly the fleets and report them alone, without the benchmarks and
+    /// the other probes.
+    pub fleets_only: bool,
+    /// Measure the live monitor and report it alone.
+    pub monitor_only: bool,
 }
 
 /// The benchmarks this report reads, as `cargo bench --bench` names them.
@@ -64,6 +69,22 @@ pub fn report(options: &Options) -> Result<String, String> {
     // not be this one.
     let dir = std::path::absolute(&options.dir)
         .map_err(|e| format!("cannot resolve {}: {e}", options.dir.display()))?;
+    if options.monitor_only {
+        let (drones, span) = options
+            .monitor
+            .ok_or("--monitor-only with --monitor-drones 0 measures nothing")?;
+        let measured = monitor::measure(&this_program()?, &dir, drones, span)?;
+        return Ok(table::monitor_table(measured.as_ref()));
+    }
+    if options.fleets_only {
+        let exe = this_program()?;
+        let mut fleets = Vec::new();
+        for &drones in &options.fleets {
+            eprintln!("flying {drones} drones, one process each, through a zenoh router...");
+            fleets.push(fleet::measure(&exe, &dir, drones)?);
+        }
+        return Ok(table::fleet_table(&fleets));
+    }
     let criterion = dir.join("criterion");
     if !options.no_run {
         run_benches(&criterion)?;

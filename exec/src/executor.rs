@@ -15,11 +15,12 @@
 //! skips the action) cancels it. An action instance is started at most once
 //! per colour, whatever the net or the network does.
 //!
-//! Two control messages travel besides the slice's bridges: `end`, sent to
-//! every other peer by each slice that marks its end of the mission (the
-//! mission has ended once every slice listed in `Slice::ends` has), and `abort`,
-//! sent by a drone whose action failed. Both are delivered exactly once like
-//! any token.
+//! Control messages travel besides the slice's bridges: `end`, sent by
+//! each slice that marks its end of the mission to the ground station (the
+//! mission has ended once every slice listed in `Slice::ends` has), which
+//! then sends `ended` to every other peer; and `abort`, sent by a drone
+//! whose action failed. Each is delivered exactly once like any token.
+//! Without a ground station among the peers, `end` goes to every peer.
 //!
 //! What happens is said once, as an [`Event`] into the agent's sink (see
 //! [`crate::event`]): the logs, the terminal and any monitor read that one
@@ -50,7 +51,7 @@ use crate::transport::{Link, PeerId, TelemetryFrame, GCS};
 /// adapter's, not the mission's, business).
 const CANCEL_SETTLE: Duration = Duration::from_secs(10);
 
-pub use crate::names::{ABORT, END};
+pub use crate::names::{ABORT, END, ENDED};
 
 mod failsafe;
 
@@ -367,6 +368,7 @@ impl Executor {
             .ends
             .iter()
             .map(|p| (p, END))
+            .chain(r.ended.iter().map(|p| (p, ENDED)))
             .chain(r.aborts.iter().map(|p| (p, ABORT)));
         for (from, bridge) in notices {
             self.on_delivered(Delivered {
@@ -893,8 +895,12 @@ impl Executor {
         if let Some(f) = self.slice.final_place {
             let me = self.me().to_string();
             if !self.marking[f as usize].is_empty() && !self.ends_reached.contains(&me) {
-                for p in self.options.peers.iter().filter(|p| **p != me) {
-                    self.bridges.send(p, END, Vec::new());
+                if !self.relays_end() {
+                    for p in self.options.peers.iter().filter(|p| **p != me) {
+                        self.bridges.send(p, END, Vec::new());
+                    }
+                } else if me != GCS {
+                    self.bridges.send(GCS, END, Vec::new());
                 }
                 self.end_reached(me);
             }
@@ -914,9 +920,39 @@ impl Executor {
             .iter()
             .all(|o| self.ends_reached.contains(o));
         if all && self.ended.is_none() {
+            if self.relays_end() && self.me() == GCS {
+                let me = self.me().to_string();
+                let ends = &self.slice.ends;
+                // A peer that holds every end knows already, and may be
+                // gone: nothing to tell it.
+                let told: Vec<PeerId> = self
+                    .options
+                    .peers
+                    .iter()
+                    .filter(|p| **p != me && !ends.iter().all(|o| o == *p))
+                    .cloned()
+                    .collect();
+                for p in &told {
+                    self.bridges.send(p, ENDED, Vec::new());
+                }
+            }
             self.emit(Kind::MissionEnded { by });
             self.ended = Some(Outcome::Completed);
         }
+    }
+
+    /// The end goes through the ground station when there is one: each
+    /// owner of an end tells it, and it tells every peer once all have
+    /// (every drone watches it anyway, see [`crate::liveness::neighbours`]).
+    fn relays_end(&self) -> bool {
+        self.options.peers.iter().any(|p| p == GCS)
+    }
+
+    /// The ground station says every end is reached.
+    fn all_ended(&mut self, by: String) {
+        let owners: Vec<String> = self.slice.ends.clone();
+        self.ends_reached.extend(owners);
+        self.end_reached(by);
     }
 
     fn start_action(&mut self, a: &eamos_petri::net::ActionRef, colour: Colour) {
@@ -1016,6 +1052,10 @@ impl Executor {
         match d.bridge.as_str() {
             END => {
                 self.end_reached(d.from);
+                return;
+            }
+            ENDED => {
+                self.all_ended(d.from);
                 return;
             }
             ABORT => {

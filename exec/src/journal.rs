@@ -59,7 +59,7 @@ use eamos_mid::{
 use eamos_petri::net::{Colour, TransitionKind};
 use eamos_slicer::Slice;
 
-use crate::names::{PeerId, ABORT, END};
+use crate::names::{PeerId, ABORT, END, ENDED};
 
 /// One record of the journal.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -524,6 +524,9 @@ pub struct Recovered {
     /// notices consumed, and this peer itself when its final place is
     /// marked. The executor takes them as it takes live notices.
     pub ends: Vec<PeerId>,
+    /// The senders of `ended` notices consumed (the ground station's word
+    /// that every end is reached).
+    pub ended: Vec<PeerId>,
     /// The senders of `abort` notices consumed.
     pub aborts: Vec<PeerId>,
     /// The end of the mission was reached (the final place was marked here, or the end
@@ -611,6 +614,10 @@ pub fn replay(slice: &Slice, path: &str, records: &[Record]) -> Result<Recovered
                         r.completed = true;
                         r.ends.push(from.clone());
                     }
+                    ENDED => {
+                        r.completed = true;
+                        r.ended.push(from.clone());
+                    }
                     ABORT => r.aborts.push(from.clone()),
                     _ => {
                         let Some(&inbox) = inboxes.get(bridge) else {
@@ -677,7 +684,7 @@ pub fn replay(slice: &Slice, path: &str, records: &[Record]) -> Result<Recovered
             }
             Record::Sent(s) => {
                 r.last_seq = r.last_seq.max(s.seq);
-                if s.bridge != END && s.bridge != ABORT {
+                if s.bridge != END && s.bridge != ENDED && s.bridge != ABORT {
                     r.sent += 1;
                 }
                 sent_keys.insert((s.to.clone(), s.bridge.clone(), s.colour.clone()));

@@ -5,9 +5,11 @@
 //! with mission time and the executor sleeps on the same clock (`PauseFor`,
 //! `Hover`), so a mission behaves the same at any simulation speed.
 
+use std::collections::BTreeMap;
+use std::sync::{Arc, Mutex, OnceLock, Weak};
 use std::time::Duration;
 
-use tokio::sync::watch;
+use tokio::sync::{watch, Notify};
 use tokio::time::Instant;
 
 /// A handle on mission time, cheap to clone. Time is in seconds since the
@@ -21,10 +23,120 @@ pub struct MissionClock {
 enum ClockKind {
     /// Wall time since `origin` (tokio's clock, so paused-time tests work).
     Wall { origin: Instant },
-    /// Simulated time published by the simulation's stepping task.
-    Simulated { time: watch::Receiver<f64> },
+    /// Simulated time published by the simulation's stepping task; with
+    /// `alarms`, by a simulation that steps lazily while nothing moves
+    /// (see [`Alarms`]).
+    Simulated {
+        time: watch::Receiver<f64>,
+        alarms: Option<Arc<Alarms>>,
+    },
     /// An autopilot's own clock (see [`MissionClock::following`]).
     Following { sample: watch::Receiver<Sample> },
+}
+
+/// A simulation that steps lazily: it may be behind the present while
+/// nothing moves, and is brought up to it before its time is read.
+pub trait Pace: Send + Sync {
+    /// Steps the simulation up to the present, unless it is stepping now.
+    fn catch_up(&self);
+}
+
+/// The deadlines of everyone sleeping on a lazily stepped simulated clock.
+///
+/// A simulation that stepped every few hundred microseconds of wall time
+/// and woke every sleeper at each step costs an idle process a few percent
+/// of a core; with this, the simulation knows the next instant anyone waits
+/// for, steps up to it at once and wakes its sleepers only then, so the
+/// same simulated instants are reached with a handful of wake-ups.
+#[derive(Default)]
+pub struct Alarms {
+    /// Deadline (the bits of a positive `f64`, which order like it) to
+    /// the number of sleepers waiting for it.
+    deadlines: Mutex<BTreeMap<u64, usize>>,
+    /// Rung when time has passed a deadline.
+    rung: Notify,
+    /// Notified when a deadline earlier than all others is set.
+    earlier: Arc<Notify>,
+    pace: OnceLock<Weak<dyn Pace>>,
+}
+
+impl Alarms {
+    /// Alarms of the simulation `pace`.
+    pub fn new(pace: Weak<dyn Pace>) -> Self {
+        let alarms = Self::default();
+        let _ = alarms.pace.set(pace);
+        alarms
+    }
+
+    /// The earliest deadline anyone waits for.
+    pub fn earliest(&self) -> Option<f64> {
+        let deadlines = self.deadlines.lock().unwrap_or_else(|p| p.into_inner());
+        deadlines.keys().next().map(|&bits| f64::from_bits(bits))
+    }
+
+    /// Wakes the sleepers whose deadline `now` has reached (the others go
+    /// back to sleep).
+    pub fn ring(&self, now: f64) {
+        if self.earliest().is_some_and(|t| now >= t) {
+            self.rung.notify_waiters();
+        }
+    }
+
+    /// Notified when a deadline earlier than all others is set: the
+    /// stepping task then plans its next wake-up again.
+    pub fn earlier(&self) -> Arc<Notify> {
+        self.earlier.clone()
+    }
+
+    fn catch_up(&self) {
+        if let Some(pace) = self.pace.get().and_then(Weak::upgrade) {
+            pace.catch_up();
+        }
+    }
+
+    fn set(&self, t: f64) -> AlarmSet<'_> {
+        let bits = t.to_bits();
+        let first = {
+            let mut deadlines = self.deadlines.lock().unwrap_or_else(|p| p.into_inner());
+            let first = deadlines.keys().next().is_none_or(|&b| bits < b);
+            *deadlines.entry(bits).or_default() += 1;
+            first
+        };
+        if first {
+            self.earlier.notify_one();
+        }
+        AlarmSet { alarms: self, bits }
+    }
+}
+
+impl std::fmt::Debug for Alarms {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Alarms")
+            .field("earliest", &self.earliest())
+            .finish_non_exhaustive()
+    }
+}
+
+/// A sleeper's deadline, unset when the sleeper stops waiting.
+struct AlarmSet<'a> {
+    alarms: &'a Alarms,
+    bits: u64,
+}
+
+impl Drop for AlarmSet<'_> {
+    fn drop(&mut self) {
+        let mut deadlines = self
+            .alarms
+            .deadlines
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        if let Some(n) = deadlines.get_mut(&self.bits) {
+            *n -= 1;
+            if *n == 0 {
+                deadlines.remove(&self.bits);
+            }
+        }
+    }
 }
 
 /// The latest reading of a followed clock: mission time `at` the wall
@@ -121,7 +233,19 @@ impl MissionClock {
     /// Simulated time, as published by whoever advances the simulation.
     pub fn simulated(time: watch::Receiver<f64>) -> Self {
         Self {
-            kind: ClockKind::Simulated { time },
+            kind: ClockKind::Simulated { time, alarms: None },
+        }
+    }
+
+    /// Simulated time of a simulation that steps lazily: reading it brings
+    /// the simulation up to the present first, and a sleeper sets an alarm
+    /// instead of waking at every step.
+    pub fn simulated_with_alarms(time: watch::Receiver<f64>, alarms: Arc<Alarms>) -> Self {
+        Self {
+            kind: ClockKind::Simulated {
+                time,
+                alarms: Some(alarms),
+            },
         }
     }
 
@@ -154,7 +278,12 @@ impl MissionClock {
     pub fn now(&self) -> f64 {
         match &self.kind {
             ClockKind::Wall { origin } => origin.elapsed().as_secs_f64(),
-            ClockKind::Simulated { time } => *time.borrow(),
+            ClockKind::Simulated { time, alarms } => {
+                if let Some(alarms) = alarms {
+                    alarms.catch_up();
+                }
+                *time.borrow()
+            }
             ClockKind::Following { sample } => sample.borrow().now(),
         }
     }
@@ -172,7 +301,26 @@ impl MissionClock {
                 let t = t.clamp(0.0, 1.0e9);
                 tokio::time::sleep_until(*origin + Duration::from_secs_f64(t)).await;
             }
-            ClockKind::Simulated { time } => {
+            ClockKind::Simulated {
+                time,
+                alarms: Some(alarms),
+            } => {
+                alarms.catch_up();
+                if *time.borrow() >= t {
+                    return;
+                }
+                let _set = alarms.set(t);
+                loop {
+                    let rung = alarms.rung.notified();
+                    tokio::pin!(rung);
+                    rung.as_mut().enable();
+                    if *time.borrow() >= t {
+                        return;
+                    }
+                    rung.await;
+                }
+            }
+            ClockKind::Simulated { time, alarms: None } => {
                 let mut time = time.clone();
                 loop {
                     if *time.borrow_and_update() >= t {

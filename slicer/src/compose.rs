@@ -5,9 +5,13 @@
 //! which drone ran it.
 //!
 //! The end protocol the executors follow is part of the net: a slice that
-//! marks its [`Slice::final_place`] sends the `end` notice to every slice
-//! (a place per receiver, marked by a silent *tell* step), and a slice stops
-//! once it holds a notice from every owner its own [`Slice::ends`] lists.
+//! marks its [`Slice::final_place`] sends the `end` notice to the ground
+//! station's slice (a silent *tell* step marks a place there), which, once
+//! it holds a notice from every owner its [`Slice::ends`] lists, sends the
+//! `ended` notice to every slice (a silent *relay* step); a slice stops once
+//! it holds that notice. Without a ground station's slice, each *tell*
+//! marks a place at every slice, and a slice stops once it holds a notice
+//! from every owner its own [`Slice::ends`] lists.
 //! The mission's `final` is marked by a transition no drone runs, once every
 //! slice has stopped. A slice that never reaches its end, or that waits for
 //! an owner that never sends, keeps `final` unmarked: a deadlock. A stopped
@@ -251,6 +255,48 @@ fn end_protocol(
             delay: None,
         }))
     };
+    let done = place(graph, "final".into(), PlaceKind::Final);
+    let finish = transition(graph, "finish".into(), TransitionKind::Finish);
+    graph.add_edge(finish, done, arc(ArcKind::Produce, ColourOp::Keep));
+    if let Some(g) = slices.iter().position(|s| s.drone == GCS) {
+        // notice[x]: the notice that `x` has ended, at the ground station.
+        let notice: Vec<NodeId> = slices
+            .iter()
+            .map(|sx| {
+                place(
+                    graph,
+                    format!("notice.{}.{GCS}", sx.drone),
+                    PlaceKind::Control,
+                )
+            })
+            .collect();
+        for (x, sx) in slices.iter().enumerate() {
+            if let Some(end) = ends[x] {
+                let tell = transition(graph, format!("tell.{}", sx.drone), TransitionKind::Silent);
+                graph.add_edge(end, tell, arc(ArcKind::Consume, ColourOp::Keep));
+                graph.add_edge(tell, notice[x], arc(ArcKind::Produce, ColourOp::Keep));
+            }
+        }
+        let relay = transition(graph, "relay".into(), TransitionKind::Silent);
+        for name in &slices[g].ends {
+            // An owner without a slice never sends: `relay` waits for ever.
+            let n = match slices.iter().position(|s| s.drone == *name) {
+                Some(x) => notice[x],
+                None => place(graph, format!("notice.{name}.{GCS}"), PlaceKind::Control),
+            };
+            graph.add_edge(n, relay, arc(ArcKind::Consume, ColourOp::Keep));
+        }
+        for sr in slices {
+            let ended = place(graph, format!("ended.{}", sr.drone), PlaceKind::Control);
+            graph.add_edge(relay, ended, arc(ArcKind::Produce, ColourOp::Keep));
+            let stop = transition(graph, format!("stop.{}", sr.drone), TransitionKind::Silent);
+            graph.add_edge(ended, stop, arc(ArcKind::Consume, ColourOp::Keep));
+            let stopped = place(graph, format!("stopped.{}", sr.drone), PlaceKind::Control);
+            graph.add_edge(stop, stopped, arc(ArcKind::Produce, ColourOp::Keep));
+            graph.add_edge(stopped, finish, arc(ArcKind::Consume, ColourOp::Keep));
+        }
+        return done;
+    }
     // notice[x][r]: the notice that `x` has ended, at `r`.
     let mut notice = vec![Vec::new(); slices.len()];
     for (x, sx) in slices.iter().enumerate() {
@@ -266,9 +312,6 @@ fn end_protocol(
             }
         }
     }
-    let done = place(graph, "final".into(), PlaceKind::Final);
-    let finish = transition(graph, "finish".into(), TransitionKind::Finish);
-    graph.add_edge(finish, done, arc(ArcKind::Produce, ColourOp::Keep));
     for (r, sr) in slices.iter().enumerate() {
         let stop = transition(graph, format!("stop.{}", sr.drone), TransitionKind::Silent);
         for name in &sr.ends {

@@ -43,6 +43,14 @@ pub struct Args {
     /// flight is `--monitor-seconds 600`.
     #[arg(long, value_name = "S", default_value_t = 30)]
     pub monitor_seconds: u64,
+    /// Fly the fleets (`--fleets`) and report them alone: no benchmarks,
+    /// no other probes.
+    #[arg(long)]
+    pub fleets_only: bool,
+    /// Measure the live monitor (`--monitor-drones`, `--monitor-seconds`)
+    /// and report it alone.
+    #[arg(long, conflicts_with = "fleets_only")]
+    pub monitor_only: bool,
     /// Measure one process and exit: `idle`, `compile MISSION` or `start
     /// SLICE` (the report runs itself this way).
     #[arg(long, hide = true, num_args = 1..=2, value_names = ["WHAT", "FILE"])]
@@ -65,6 +73,8 @@ pub fn run(args: Args) -> ExitCode {
                 std::time::Duration::from_secs(args.monitor_seconds),
             )
         }),
+        fleets_only: args.fleets_only,
+        monitor_only: args.monitor_only,
     };
     match eamos_bench::report(&options) {
         Ok(table) => {

@@ -310,3 +310,36 @@ fn an_agent_killed_mid_pause_and_restarted_from_its_journal_waits_only_for_the_r
         "Arm, Takeoff, Land once each"
     );
 }
+
+/// The end of the mission costs a notice per peer, not one per pair: each
+/// owner of an end tells the ground station alone, and the ground station
+/// tells each other peer once (every notice told to every peer by every
+/// owner grew with the square of the fleet, and kept a hundred-drone
+/// fleet retransmitting for seconds after its last action).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_end_goes_through_the_ground_station_one_notice_per_peer() {
+    let s = slices("experiment_c.go");
+    let dir = tempfile::tempdir().unwrap();
+    let mut options = run_options(dir.path());
+    options.journal = None;
+    let report = crate::runner::run_fleet(
+        &s,
+        &eamos_fleet::Fleet::default(),
+        &eamos_profile::builtin(),
+        &options,
+    )
+    .await
+    .unwrap();
+    let peers = s.slices.len() as u64;
+    assert!(peers >= 4, "three drones and the ground station");
+    for r in &report.reports {
+        assert_eq!(r.outcome, crate::Outcome::Completed, "{}", r.drone);
+        // What the bridges carried besides the slice's own tokens.
+        let notices = r.bridges.sent - r.sent;
+        if r.drone == crate::names::GCS {
+            assert_eq!(notices, peers - 1, "{}", r.drone);
+        } else {
+            assert!(notices <= 1, "{} sent {notices} notices", r.drone);
+        }
+    }
+}

@@ -42,14 +42,14 @@ use std::time::Duration;
 use async_trait::async_trait;
 use eamos_profile::Profile;
 use serde::{Deserialize, Serialize};
-use tokio::sync::watch;
+use tokio::sync::{watch, Notify};
 use tokio::time::Instant;
 
 use crate::api::{
     ActionCall, ActionError, Adapter, AdapterInfo, CancellationToken, FlightMode, MultirotorAction,
     Telemetry, Vec3,
 };
-use crate::clock::MissionClock;
+use crate::clock::{Alarms, MissionClock, Pace};
 use crate::log::{AdapterEvent, AdapterRecord, LogRecord, SharedSink};
 
 use declared::Plan;
@@ -168,6 +168,9 @@ const MAX_BATCH: u64 = 2_000;
 /// Steps behind schedule after which the simulation gives up catching up
 /// and runs slower than asked, rather than in bursts.
 const MAX_LAG: u64 = 20_000;
+/// How long (wall) the simulation sleeps at most while nothing moves: its
+/// telemetry, a holding drone's battery, then show at this pace.
+const IDLE_WAKE: Duration = Duration::from_millis(50);
 
 /// All simulated drones of a process, on one clock.
 ///
@@ -195,20 +198,25 @@ impl SimFleet {
         };
         let handle = tokio::runtime::Handle::try_current().map_err(|_| SimError::NoRuntime)?;
         let (time_tx, time_rx) = watch::channel(steps as f64 * config.step);
-        let world = Arc::new(World {
-            clock: MissionClock::simulated(time_rx),
-            time_tx,
-            state: Mutex::new(WorldState {
-                steps,
-                drones: Vec::new(),
-            }),
-            config,
+        let world = Arc::new_cyclic(|me: &Weak<World>| {
+            let pace: Weak<dyn Pace> = me.clone();
+            let alarms = Arc::new(Alarms::new(pace));
+            World {
+                clock: MissionClock::simulated_with_alarms(time_rx, alarms.clone()),
+                alarms,
+                wake: Arc::new(Notify::new()),
+                time_tx,
+                state: Mutex::new(WorldState {
+                    steps,
+                    drones: Vec::new(),
+                    origin: Instant::now(),
+                    base: 0,
+                    done: 0,
+                }),
+                config,
+            }
         });
-        handle.spawn(drive(
-            Arc::downgrade(&world),
-            world.config.step,
-            world.config.speed,
-        ));
+        handle.spawn(drive(Arc::downgrade(&world)));
         Ok(Self { world })
     }
 
@@ -248,6 +256,7 @@ impl SimFleet {
         if state.drones.iter().any(|d| d.name == spec.name) {
             return Err(SimError::Duplicate(spec.name));
         }
+        self.world.catch_up_locked(&mut state);
         let now = state.now(self.world.config.step);
         let model = Multirotor::new(spec.vehicle);
         let telemetry = watch::Sender::new(model.telemetry(now, spec.home));
@@ -313,43 +322,90 @@ impl SimFleet {
 
     /// Steps simulated so far.
     pub fn steps(&self) -> u64 {
-        self.world.lock().steps
+        let mut state = self.world.lock();
+        self.world.catch_up_locked(&mut state);
+        state.steps
     }
 }
 
 /// Advances the world on schedule until nobody holds it any more.
-async fn drive(world: Weak<World>, step: f64, speed: f64) {
-    let mut origin = Instant::now();
-    let mut base: u64 = 0;
-    let mut done: u64 = 0;
+///
+/// While a drone moves (a motion runs, or a scripted pilot flies it) it
+/// wakes at every step, so that whoever waits on the motion sees its end at
+/// the step it happens. While nothing moves it sleeps until the next alarm
+/// on the clock (a `PauseFor`, a timed action, a deadline), or for
+/// [`IDLE_WAKE`] of wall time, and then takes every step due at once: the
+/// same steps, the same physics (a holding drone still drains its battery
+/// and may land on an empty one), at a few dozen wake-ups a second instead
+/// of one per step. A command given meanwhile first brings the world up to
+/// the present (see [`World::catch_up_locked`]), so it starts at the same
+/// step as with a wake-up at every step.
+async fn drive(world: Weak<World>) {
+    let Some(w) = world.upgrade() else {
+        return;
+    };
+    let (wake, earlier) = (w.wake.clone(), w.alarms.earlier());
+    let (step, speed) = (w.config.step, w.config.speed);
+    // Steps of one idle wake-up: at least one.
+    let idle_steps = ((IDLE_WAKE.as_secs_f64() * speed / step).floor() as u64).max(1);
+    drop(w);
     loop {
         let Some(w) = world.upgrade() else {
             return;
         };
-        let due = base + (origin.elapsed().as_secs_f64() * speed / step + 1e-6).floor() as u64;
-        let mut n = 0;
-        while done < due && n < MAX_BATCH {
-            w.step();
-            done += 1;
-            n += 1;
-        }
+        let next = {
+            let mut state = w.lock();
+            let due = w.due(&mut state);
+            let until = due.min(state.done + MAX_BATCH);
+            w.run_until(&mut state, until);
+            if state.done < due {
+                None
+            } else {
+                Some(plan(&w, &state, idle_steps))
+            }
+        };
         drop(w);
-        if due > done + MAX_LAG {
-            origin = Instant::now();
-            base = done;
-        }
-        if done < due {
+        let Some(next) = next else {
+            // Behind schedule: let other tasks run between batches.
             tokio::task::yield_now().await;
             continue;
+        };
+        tokio::select! {
+            _ = tokio::time::sleep_until(next) => {}
+            _ = wake.notified() => {}
+            _ = earlier.notified() => {}
         }
-        let next = origin + Duration::from_secs_f64((done - base + 1) as f64 * step / speed);
-        tokio::time::sleep_until(next).await;
     }
+}
+
+/// When the stepping task wakes next: at the next step while a drone
+/// moves, else at the next alarm or after `idle_steps`.
+fn plan(w: &World, state: &WorldState, idle_steps: u64) -> Instant {
+    let (step, speed) = (w.config.step, w.config.speed);
+    let moving = state
+        .drones
+        .iter()
+        .any(|d| d.motion.is_some() || d.pilot.is_some());
+    let ahead = if moving {
+        1
+    } else {
+        let now = state.now(step);
+        let alarm = w.alarms.earliest().map_or(u64::MAX, |t| {
+            // Steps until time reaches `t`, at least one (a step short
+            // by rounding is taken at the next wake-up).
+            ((t - now) / step - 1e-9).ceil().clamp(1.0, 1.0e15) as u64
+        });
+        idle_steps.min(alarm)
+    };
+    state.origin + Duration::from_secs_f64((state.done - state.base + ahead) as f64 * step / speed)
 }
 
 struct World {
     config: SimConfig,
     clock: MissionClock,
+    alarms: Arc<Alarms>,
+    /// Wakes the stepping task when a command may have set a drone moving.
+    wake: Arc<Notify>,
     time_tx: watch::Sender<f64>,
     state: Mutex<WorldState>,
 }
@@ -357,6 +413,11 @@ struct World {
 struct WorldState {
     steps: u64,
     drones: Vec<Slot>,
+    /// The pace: `done` steps taken since the start, of which those after
+    /// `base` are due `step / speed` apart from `origin`.
+    origin: Instant,
+    base: u64,
+    done: u64,
 }
 
 impl WorldState {
@@ -371,17 +432,55 @@ impl World {
         self.state.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    fn step(&self) {
-        let now = {
-            let mut state = self.lock();
+    /// Steps due by now on the wall clock. Far behind (a machine too
+    /// busy), the world gives up catching up and runs slower than asked,
+    /// rather than in bursts.
+    fn due(&self, state: &mut WorldState) -> u64 {
+        let (step, speed) = (self.config.step, self.config.speed);
+        let due = state.base
+            + (state.origin.elapsed().as_secs_f64() * speed / step + 1e-6).floor() as u64;
+        if due > state.done + MAX_LAG {
+            state.origin = Instant::now();
+            state.base = state.done;
+            return state.done;
+        }
+        due
+    }
+
+    /// Takes every step up to `done == until`, then publishes the time and
+    /// wakes the sleepers whose alarm it reached.
+    fn run_until(&self, state: &mut WorldState, until: u64) {
+        if state.done >= until {
+            return;
+        }
+        while state.done < until {
             state.steps += 1;
+            state.done += 1;
             let now = state.now(self.config.step);
             for slot in &mut state.drones {
                 slot.step(now, &self.config);
             }
-            now
-        };
+        }
+        let now = state.now(self.config.step);
         self.time_tx.send_replace(now);
+        self.alarms.ring(now);
+    }
+
+    /// Brings a world that slept while nothing moved up to the present,
+    /// before a command changes it or its time is read.
+    fn catch_up_locked(&self, state: &mut WorldState) {
+        let due = self.due(state);
+        self.run_until(state, due.min(state.done + MAX_LAG));
+    }
+}
+
+impl Pace for World {
+    fn catch_up(&self) {
+        // The stepping task holds the world: it is stepping now, and a
+        // reader inside a step must not wait for itself.
+        if let Ok(mut state) = self.state.try_lock() {
+            self.catch_up_locked(&mut state);
+        }
     }
 }
 
@@ -648,10 +747,16 @@ impl SimDrone {
         Ok(())
     }
 
+    /// Runs `f` on the drone at the present step, then lets the stepping
+    /// task know that the drone may move now.
     fn with_slot<R>(&self, f: impl FnOnce(&mut Slot, f64) -> R) -> R {
         let mut state = self.world.lock();
+        self.world.catch_up_locked(&mut state);
         let now = state.now(self.world.config.step);
-        f(&mut state.drones[self.index], now)
+        let r = f(&mut state.drones[self.index], now);
+        drop(state);
+        self.world.wake.notify_one();
+        r
     }
 
     fn start(&self, call: &ActionCall, plan: Plan, target: Option<Vec3>) -> Start {

@@ -800,3 +800,51 @@ async fn an_airframe_with_a_position_that_is_not_finite_is_refused() {
     assert!(d.restore(&bad).is_err());
     assert!(now(&d).landed);
 }
+
+/// Counts the publications of the fleet's simulated time from now on.
+fn count_publications(fleet: &SimFleet) -> Arc<std::sync::atomic::AtomicUsize> {
+    let n = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let mut time = fleet.world.time_tx.subscribe();
+    let counter = n.clone();
+    tokio::spawn(async move {
+        while time.changed().await.is_ok() {
+            counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        }
+    });
+    n
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_fleet_where_nothing_moves_steps_in_batches_and_wakes_its_sleepers_on_time() {
+    let f = fleet(20.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    airborne(&d, 2.0).await;
+    let steps = f.steps();
+    let published = count_publications(&f);
+    // Ten simulated seconds of holding: 500 steps, half a second of
+    // tokio time, in a handful of wake-ups rather than one per step.
+    let clock = d.clock();
+    let until = clock.now() + 10.01;
+    clock.sleep_until(until).await;
+    let n = published.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(n <= 20, "the time was published {n} times");
+    assert_eq!(f.steps() - steps, 501);
+    // The sleeper woke at the step that reached its time, not later.
+    assert!(clock.now() >= until && clock.now() < until + f.config().step);
+    // Every step was taken: it still holds where it took off.
+    let tol = d.model().config().arrival_tolerance;
+    assert!(now(&d).position.distance(Vec3::new(0.0, 0.0, 2.0)) <= tol);
+}
+
+#[tokio::test(start_paused = true)]
+async fn a_command_after_a_quiet_spell_starts_at_the_present_step() {
+    let f = fleet(20.0);
+    let d = drone(&f, "D1", Vec3::ZERO);
+    // Nobody waits on the clock: the world may lag the wall clock.
+    tokio::time::sleep(Duration::from_millis(1_003)).await;
+    run(&d, "Arm", &[]).await.unwrap();
+    let t = now(&d);
+    assert!(t.armed);
+    // 1.003 s at twenty times: 20.06 s, the step of the present.
+    assert!((t.time - 20.06).abs() < 1e-9, "armed at {}", t.time);
+}
