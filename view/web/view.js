@@ -433,16 +433,24 @@ var EamosView = (function () {
         dot.setAttribute("cy", q[1]);
       });
     } else if (event.event === "marking") {
-      // Each peer says what it holds; the net's marking is all of them.
+      // Each peer says what it holds; the net's marking is all of them. A
+      // place is marked while some peer holds it: only the places this
+      // peer took or gave up change, so that a hundred drones' markings
+      // do not restyle the whole graph each time.
       view.marking = view.marking || {};
-      view.marking[event.drone] = event.marked || [];
-      var marked = {};
-      for (var peer in view.marking) {
-        view.marking[peer].forEach(function (id) { marked[id] = true; });
-      }
-      for (var id in view.graph.nodes) {
-        view.graph.nodes[id].classList.toggle("marked", !!marked[id]);
-      }
+      view.holders = view.holders || {};
+      var before = view.marking[event.drone] || [], after = event.marked || [];
+      view.marking[event.drone] = after;
+      var held = function (id, by) {
+        view.holders[id] = (view.holders[id] || 0) + by;
+        var node = view.graph.nodes[id];
+        if (node) node.classList.toggle("marked", view.holders[id] > 0);
+      };
+      var was = {}, is = {};
+      before.forEach(function (id) { was[id] = true; });
+      after.forEach(function (id) { is[id] = true; });
+      before.forEach(function (id) { if (!is[id]) held(id, -1); });
+      after.forEach(function (id) { if (!was[id]) held(id, 1); });
     }
   }
 
