@@ -195,6 +195,29 @@ fn during_a_flight_of_experiment_c_markers_move_actions_change_and_the_marking_a
         serde_json::json!([300, 200, 600]),
         "trail, events, plot"
     );
+
+    // A place stays marked while any peer holds it: two peers that say
+    // they hold one nobody held, then give it up one after the other.
+    let shared = b.eval(
+        r#"var v = window.eamosView;
+        var id = Object.keys(v.graph.nodes).find(k => v.graph.nodes[k].classList.contains("place")
+                                                       && !v.graph.nodes[k].classList.contains("marked"));
+        var marked = () => v.graph.nodes[id].classList.contains("marked");
+        var said = [];
+        v.update({time: 1, drone: "Drone1", event: "marking", marked: [id]});
+        v.update({time: 1, drone: "Drone2", event: "marking", marked: [id]});
+        said.push(marked());
+        v.update({time: 2, drone: "Drone1", event: "marking", marked: []});
+        said.push(marked());
+        v.update({time: 3, drone: "Drone2", event: "marking", marked: []});
+        said.push(marked());
+        return said;"#,
+    );
+    assert_eq!(
+        shared,
+        serde_json::json!([true, true, false]),
+        "marked by two, by one, by none"
+    );
 }
 
 /// Starts `eamos` with `args`, its output dropped.
