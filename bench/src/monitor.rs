@@ -177,7 +177,10 @@ pub fn measure(
     let mut largest = start.heap_bytes;
     let mut sampled = began;
     while began.elapsed() < span {
-        std::thread::sleep(Duration::from_secs(1).min(span - began.elapsed().min(span)));
+        std::thread::sleep(
+            span.saturating_sub(began.elapsed())
+                .min(Duration::from_secs(1)),
+        );
         if matches!(run.0.try_wait(), Ok(Some(_))) {
             return Err("the monitored run ended before the measurement did".into());
         }

@@ -84,12 +84,7 @@ pub async fn observe(
         session
             .declare_subscriber(format!("eamos/{mission}/*/events"))
             .callback(move |sample| {
-                let bytes = sample.payload().to_bytes();
-                // A line of a later version, or garbage, is not shown.
-                let Some(e) = std::str::from_utf8(&bytes)
-                    .ok()
-                    .and_then(|l| crate::log::event_of(l).ok())
-                else {
+                let Some(e) = event_in(&sample) else {
                     return;
                 };
                 {
@@ -152,6 +147,13 @@ pub async fn observe(
     })
 }
 
+/// The event a peer published (a mission log line, [`super::publish`]);
+/// a line of a later version, or garbage, is none.
+fn event_in(sample: &zenoh::sample::Sample) -> Option<Event> {
+    let bytes = sample.payload().to_bytes();
+    crate::log::event_of(std::str::from_utf8(&bytes).ok()?).ok()
+}
+
 /// Asks a peer, when it is seen up, for its latest state (marking, action,
 /// end: [`super::publish`]), so that a monitor started during a flight, or
 /// that joined a peer after its first events, shows where it is.
@@ -184,13 +186,7 @@ impl StateAsker {
                 let Ok(sample) = reply.result() else {
                     continue;
                 };
-                let bytes = sample.payload().to_bytes();
-                if let Some(e) = std::str::from_utf8(&bytes)
-                    .ok()
-                    .and_then(|l| crate::log::event_of(l).ok())
-                {
-                    kept.push(e);
-                }
+                kept.extend(event_in(sample));
             }
             kept.sort_by(|a, b| a.time.total_cmp(&b.time));
             for e in kept {
