@@ -1,6 +1,7 @@
 //! A fleet of drones, one process each, on this computer: `eamos gen`'s
-//! mission of N drones (ten nodes per drone, seed 12), flown by N
-//! processes `eamos run --drone Dk` and one `eamos run --gcs`, all joined
+//! mission of N drones (ten nodes per drone, seed 12), cut once by `eamos
+//! build --fleet --out`, flown by N processes `eamos run --slices DIR
+//! --drone Dk` and one `eamos run MISSION --gcs`, all joined
 //! through one zenoh router (`eamos router`, named by the fleet file's
 //! `[zenoh] routers`), as a crew would start them. Measured: from the
 //! launch to the mission's start (the ground station's first token, sent
@@ -44,6 +45,68 @@ pub struct FleetRun {
     pub drone_private_max_kib: u64,
     pub drone_private_median_kib: u64,
     pub gcs_private_kib: u64,
+    /// Peak proportional set (the resident set with each shared page
+    /// divided among the processes that map it: what each process adds
+    /// to the machine), sampled likewise: largest drone, median drone.
+    pub drone_pss_max_kib: u64,
+    pub drone_pss_median_kib: u64,
+    /// Compiling and cutting the slices once, before the launch.
+    pub cut: Duration,
+    /// What the router read and wrote over the flight (from the launch to
+    /// the end), as the kernel counts its system calls; `None` where it
+    /// does not say.
+    pub router: Option<RouterIo>,
+}
+
+/// A process's input and output as the kernel counts them
+/// (`/proc/PID/io`): the router's are the fleet's frames through it.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RouterIo {
+    pub read_calls: u64,
+    pub write_calls: u64,
+    pub read_bytes: u64,
+    pub written_bytes: u64,
+}
+
+#[cfg(target_os = "linux")]
+fn io_of(pid: u32) -> Option<RouterIo> {
+    let text = std::fs::read_to_string(format!("/proc/{pid}/io")).ok()?;
+    let field = |name: &str| -> Option<u64> {
+        text.lines()
+            .find_map(|l| l.strip_prefix(name))?
+            .trim()
+            .parse()
+            .ok()
+    };
+    Some(RouterIo {
+        read_calls: field("syscr:")?,
+        write_calls: field("syscw:")?,
+        read_bytes: field("rchar:")?,
+        written_bytes: field("wchar:")?,
+    })
+}
+
+#[cfg(not(target_os = "linux"))]
+fn io_of(_pid: u32) -> Option<RouterIo> {
+    None
+}
+
+/// Proportional set size of a running process, in KiB.
+#[cfg(target_os = "linux")]
+fn pss_kib(pid: u32) -> Option<u64> {
+    std::fs::read_to_string(format!("/proc/{pid}/smaps_rollup"))
+        .ok()?
+        .lines()
+        .find_map(|l| l.strip_prefix("Pss:"))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+#[cfg(not(target_os = "linux"))]
+fn pss_kib(_pid: u32) -> Option<u64> {
+    None
 }
 
 /// How often the private memory of every process is read (a few
@@ -180,6 +243,26 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         "fleet.toml",
         format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{}\"]\n", free_port()?).as_bytes(),
     )?;
+    // Cut once for the fleet: each drone's agent reads its own slice
+    // instead of compiling the whole mission (`eamos run --slices`).
+    let slices = dir.join("slices");
+    let cutting = Instant::now();
+    let built = Command::new(exe)
+        .arg("build")
+        .arg(&mission)
+        .arg("--fleet")
+        .arg(&fleet)
+        .arg("--out")
+        .arg(&slices)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", exe.display()))?;
+    if !built.status.success() {
+        return Err(format!(
+            "eamos build failed: {}",
+            String::from_utf8_lossy(&built.stderr)
+        ));
+    }
+    let cut = cutting.elapsed();
     let timed = Path::new("/usr/bin/time").exists();
     let logs = dir.join("logs");
     let gcs_log = logs.join("GCS.mission.jsonl");
@@ -199,21 +282,27 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         .args(["--router", "1"]);
     router.0.push(spawn(cmd)?);
     let mut peers = Group(Vec::new());
+    let slices_dir = slices.to_string_lossy().into_owned();
+    let mission_file = mission.to_string_lossy().into_owned();
     let roles = (1..=drones)
         .map(|k| {
             (
                 format!("D{k}"),
-                vec!["--drone".to_string(), format!("D{k}")],
+                vec![
+                    "--slices".to_string(),
+                    slices_dir.clone(),
+                    "--drone".to_string(),
+                    format!("D{k}"),
+                ],
             )
         })
         .chain(std::iter::once((
             "GCS".to_string(),
-            vec!["--gcs".to_string()],
+            vec![mission_file.clone(), "--gcs".to_string()],
         )));
     for (tag, role) in roles {
         let mut cmd = command(exe, &peak(&tag), timed);
         cmd.arg("run")
-            .arg(&mission)
             .arg("--fleet")
             .arg(&fleet)
             .args(&role)
@@ -227,22 +316,27 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
     let mut to_start = None;
     let mut statuses = vec![None; peers.0.len()];
     let mut private = vec![0u64; peers.0.len()];
+    let mut pss = vec![0u64; peers.0.len()];
     let mut workers: Vec<Option<u32>> = vec![None; peers.0.len()];
     let mut sampled = Instant::now() - SAMPLE;
     while launched.elapsed() < LIMIT {
         if sampled.elapsed() >= SAMPLE {
             sampled = Instant::now();
-            for ((c, w), p) in peers
+            for (((c, w), p), shared) in peers
                 .0
                 .iter()
                 .zip(workers.iter_mut())
                 .zip(private.iter_mut())
+                .zip(pss.iter_mut())
             {
                 if w.is_none() {
                     *w = worker(c.id(), timed);
                 }
                 if let Some(kib) = w.and_then(private_kib) {
                     *p = (*p).max(kib);
+                }
+                if let Some(kib) = w.and_then(pss_kib) {
+                    *shared = (*shared).max(kib);
                 }
             }
         }
@@ -265,6 +359,7 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         std::thread::sleep(Duration::from_millis(20));
     }
     let to_end = launched.elapsed();
+    let router_io = router.0.first().and_then(|r| io_of(r.id()));
     drop(peers);
     drop(router);
     let said = std::fs::read_to_string(&gcs_log).unwrap_or_default();
@@ -277,6 +372,8 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
     // The ground station is the last process.
     let gcs_private_kib = private.pop().unwrap_or(0);
     private.sort_unstable();
+    pss.pop();
+    pss.sort_unstable();
     Ok(FleetRun {
         drone_private_max_kib: private.last().copied().unwrap_or(0),
         drone_private_median_kib: private.get(private.len() / 2).copied().unwrap_or(0),
@@ -288,5 +385,9 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         drone_max_kib: peaks.last().copied().unwrap_or(0),
         drone_median_kib: peaks.get(peaks.len() / 2).copied().unwrap_or(0),
         gcs_kib: peak_kib(&peak("GCS")),
+        drone_pss_max_kib: pss.last().copied().unwrap_or(0),
+        drone_pss_median_kib: pss.get(pss.len() / 2).copied().unwrap_or(0),
+        cut,
+        router: router_io,
     })
 }

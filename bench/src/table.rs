@@ -664,7 +664,21 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
         .then(|| mb(f.drone_max_kib.max(f.gcs_kib)) <= goal::FLEET_PROCESS_MB);
     let private_met = (f.completed && f.drone_private_max_kib > 0 && f.gcs_private_kib > 0)
         .then(|| mb(f.drone_private_max_kib.max(f.gcs_private_kib)) <= goal::FLEET_PROCESS_MB);
+    let flown = f.to_end.as_secs_f64().max(1e-3);
+    let through = f.router.map_or("not measured".to_string(), |io| {
+        format!(
+            "{:.0} reads and {:.0} writes a second ({:.2} MB/s in, {:.2} MB/s out)",
+            io.read_calls as f64 / flown,
+            io.write_calls as f64 / flown,
+            io.read_bytes as f64 / flown / 1e6,
+            io.written_bytes as f64 / flown / 1e6
+        )
+    });
     vec![
+        row(
+            format!("{what}: compiling and cutting the slices once, before the launch"),
+            format!("{:.2} s", f.cut.as_secs_f64()),
+        ),
         row(
             format!("{what}: from the launch to the mission's start"),
             start.map_or("did not start".to_string(), |s| format!("{s:.1} s")),
@@ -702,6 +716,18 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
             ),
         )
         .goal(format!("≤ {} MB", goal::FLEET_PROCESS_MB), private_met),
+        row(
+            format!("{what}: peak proportional memory per drone (sampled; shared pages divided among the processes that map them)"),
+            format!(
+                "largest {}, median {}",
+                mem(f.drone_pss_max_kib),
+                mem(f.drone_pss_median_kib)
+            ),
+        ),
+        row(
+            format!("{what}: through the router, from the launch to the end (socket and file system calls, as the kernel counts them)"),
+            through,
+        ),
     ]
 }
 

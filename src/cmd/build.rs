@@ -9,6 +9,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use eamos_fleet::identity::{fleet_version, MissionId};
 use eamos_lang::{SourceFile, Style};
 use serde_json::json;
 
@@ -28,13 +29,19 @@ pub struct Args {
     /// Write the mission's Petri net into DIR as `net.pnml` (PNML P/T net),
     /// `net.dot` (Graphviz) and `net.graphml`, and one slice per drone (and
     /// the ground station) as `slice-<drone>.json`, `slice-<drone>.bin` and
-    /// `net-<drone>.dot`.
+    /// `net-<drone>.dot`, with `slices.json` naming the mission they cut.
     #[arg(short = 'o', long = "out", value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// In `net.pnml`, add a transition `final_loop` on the place `final`, so
     /// that model checkers tell proper termination from a deadlock.
     #[arg(long)]
     pub pnml_final_loop: bool,
+    /// The fleet file the slices written with `--out` will fly with: they
+    /// carry the identity of the mission and this fleet, as `eamos run
+    /// --fleet` computes it, so that `eamos run --slices DIR --drone D
+    /// --fleet FLEET.toml` flies them. Without it, the default fleet's.
+    #[arg(long, value_name = "FLEET.toml")]
+    pub fleet: Option<PathBuf>,
 }
 
 /// Writes the net's exports into `dir` (created if needed); the paths
@@ -99,10 +106,21 @@ pub fn run(args: Args) -> ExitCode {
             // reuses its memory instead of adding to it.
             drop(mission);
             let net_stats = eamos_petri::stats::stats(&net);
-            let slices = match eamos_slicer::slice(&net) {
+            let bound = match &args.fleet {
+                Some(path) => eamos_fleet::Fleet::load(path, &net.name, &net.drones)
+                    .map_err(|e| e.to_string()),
+                None => Ok(eamos_fleet::Fleet::default()),
+            }
+            .and_then(|fleet| {
+                let net_id = eamos_slicer::net_id(&net);
+                let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
+                eamos_slicer::slice_as(&net, id.as_str())
+                    .map(|slices| (slices, net_id))
+                    .map_err(|e| format!("cannot slice the net of {}: {e}", source.name))
+            });
+            let (slices, net_id) = match bound {
                 Ok(s) => s,
-                Err(e) => {
-                    let message = format!("cannot slice the net of {}: {e}", source.name);
+                Err(message) => {
                     if args.json {
                         println!("{}", json!({ "file": source.name, "error": message }));
                     }
@@ -118,10 +136,19 @@ pub fn run(args: Args) -> ExitCode {
                         let files = eamos_slicer::write_dir(&slices, dir).map_err(|e| {
                             format!("cannot write slices into {}: {e}", dir.display())
                         })?;
-                        let s: Vec<PathBuf> = files
+                        let mut s: Vec<PathBuf> = files
                             .into_iter()
                             .flat_map(|f| [f.json, f.binary, f.dot])
                             .collect();
+                        s.push(super::slices::write_manifest(
+                            dir,
+                            &super::slices::Manifest {
+                                mission: net.name.clone(),
+                                net: net_id.clone(),
+                                drones: net.drones.clone(),
+                                identity: slices.mission_id.clone(),
+                            },
+                        )?);
                         Ok((w, s))
                     }) {
                         Ok(w) => w,

@@ -16,5 +16,6 @@ pub mod monitor;
 pub mod plan;
 pub mod router;
 pub mod run;
+pub mod slices;
 pub mod sim_vehicle;
 pub mod view;

@@ -25,7 +25,7 @@ use eamos_exec::runner::{self, RunOptions, RunReport, TransportKind};
 use eamos_exec::transport::GCS;
 use eamos_exec::Outcome;
 use eamos_petri::net::TransitionKind;
-use eamos_slicer::Slices;
+use eamos_slicer::{Slice, Slices};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Transport {
@@ -40,10 +40,23 @@ pub enum Transport {
 #[derive(clap::Args)]
 pub struct Args {
     /// The mission file (Go syntax).
-    pub mission: PathBuf,
+    #[arg(required_unless_present = "slices")]
+    pub mission: Option<PathBuf>,
     /// Run only this drone's agent, talking zenoh to its peers.
     #[arg(long, value_name = "DRONE", conflicts_with = "gcs")]
     pub drone: Option<String>,
+    /// With `--drone`: fly the drone's slice from DIR, written by `eamos
+    /// build MISSION --fleet FLEET.toml --out DIR`, instead of compiling
+    /// the whole mission to cut it out (what a fleet of hundreds of
+    /// processes on one computer would otherwise do hundreds of times).
+    /// The slices must have been built for the same fleet file.
+    #[arg(
+        long,
+        value_name = "DIR",
+        requires = "drone",
+        conflicts_with_all = ["mission", "monitor", "allow_findings"]
+    )]
+    pub slices: Option<PathBuf>,
     /// Run only the ground station: start the mission and follow it.
     #[arg(long)]
     pub gcs: bool,
@@ -111,28 +124,8 @@ pub fn run(args: Args) -> ExitCode {
         return bad_input("--startup-timeout must be zero or more seconds");
     }
     let colour = std::io::stderr().is_terminal();
-    let loaded = if args.drone.is_some() {
-        // A drone's agent compiles and slices the mission, and does not
-        // check it: the proof is the ground station's (or the whole
-        // fleet's, or `eamos check`'s), made once for the fleet instead of
-        // once per drone. Nothing flies unchecked: a drone holds no token
-        // until the ground station starts the mission, which it does only
-        // once the mission passed its check (or the crew said
-        // `--allow-findings` to it), and only for the same mission and
-        // fleet, since every message is scoped by their identity. A fleet
-        // of a hundred drones in one process each on one computer then
-        // pays for one check, not a hundred.
-        mission::load(&args.mission, args.fleet.as_deref(), colour)
-    } else {
-        mission::load_to_fly(
-            &args.mission,
-            args.fleet.as_deref(),
-            colour,
-            args.allow_findings,
-        )
-    };
-    let loaded = match loaded {
-        Ok(m) => m,
+    let loaded = match load(&args, colour) {
+        Ok(l) => l,
         Err(status) => return status,
     };
     let runtime = match tokio::runtime::Builder::new_multi_thread()
@@ -143,45 +136,40 @@ pub fn run(args: Args) -> ExitCode {
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
     // Bound before anything flies: a taken port stops the run here.
-    let monitor = match args.monitor {
-        Some(addr) => match runtime.block_on(super::live::start(addr, &loaded, None)) {
-            Ok(m) => Some(m),
-            Err(e) => return bad_input(&e),
-        },
-        None => None,
+    let monitor = match (args.monitor, &loaded) {
+        (Some(addr), Loaded::Mission(m)) => {
+            match runtime.block_on(super::live::start(addr, m, None)) {
+                Ok(m) => Some(m),
+                Err(e) => return bad_input(&e),
+            }
+        }
+        _ => None,
     };
-    let Mission {
+    let Flight {
+        name,
         source,
-        profiles,
-        net,
-        slices,
+        part,
         fleet,
-        ..
-    } = loaded;
+        profiles,
+    } = match flight_of(loaded, &args) {
+        Ok(f) => f,
+        Err(message) => return bad_input(&message),
+    };
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match eamos_rollout::trusted_key(&fleet) {
         Ok(key) => key.map(eamos_exec::abort::opener),
         Err(e) => return bad_input(&e),
     };
-    let peer = match (&args.drone, args.gcs) {
-        (Some(d), _) => {
-            if !net.drones.contains(d) {
-                return bad_input(&format!(
-                    "`{d}` is not a drone of {} (its drones: {})",
-                    slices.mission,
-                    net.drones.join(", ")
-                ));
-            }
-            Some(d.clone())
-        }
-        (None, true) => Some(GCS.to_string()),
-        (None, false) => None,
+    let flown: Vec<&Slice> = match &part {
+        Part::Whole(all) => all.slices.iter().collect(),
+        Part::One(s) => vec![s],
     };
+    let shown: Vec<String> = flown.iter().map(|s| s.drone.clone()).collect();
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| Path::new("eamos-run").join(&slices.mission));
+        .unwrap_or_else(|| Path::new("eamos-run").join(&name));
 
     // Diagnostics (who is up, who sees whom, retransmissions) only when
     // asked for with RUST_LOG (`RUST_LOG=eamos_exec=debug`): the progress
@@ -209,7 +197,7 @@ pub fn run(args: Args) -> ExitCode {
             Transport::InProcess => TransportKind::InProcess,
             Transport::Zenoh => TransportKind::Zenoh,
         },
-        source: Some(Arc::new(source)),
+        source: source.map(Arc::new),
         events: Some(events),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
         seed: args.seed,
@@ -217,10 +205,7 @@ pub fn run(args: Args) -> ExitCode {
         abort_opener,
         ..RunOptions::default()
     };
-    let shown: Vec<String> = match &peer {
-        Some(p) => vec![p.clone()],
-        None => runner::peers(&slices),
-    };
+    let counts = action_counts(&flown);
     let result = runtime.block_on(async {
         let stop = options.stop.clone();
         tokio::spawn(async move {
@@ -229,16 +214,10 @@ pub fn run(args: Args) -> ExitCode {
                 stop.cancel();
             }
         });
-        let display = tokio::spawn(show_progress(events_rx, action_counts(&slices, &shown)));
-        let result = match &peer {
-            Some(p) => match slices.get(p) {
-                Some(slice) => runner::run_peer(slice, &fleet, &profiles, &options).await,
-                None => Err(runner::RunError::UnknownPeer(
-                    p.clone(),
-                    runner::peers(&slices).join(", "),
-                )),
-            },
-            None => runner::run_fleet(&slices, &fleet, &profiles, &options).await,
+        let display = tokio::spawn(show_progress(events_rx, counts));
+        let result = match &part {
+            Part::One(slice) => runner::run_peer(slice, &fleet, &profiles, &options).await,
+            Part::Whole(all) => runner::run_fleet(all, &fleet, &profiles, &options).await,
         };
         drop(options);
         let _ = display.await;
@@ -252,7 +231,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(r) => r,
         Err(e) => return bad_input(&e.to_string()),
     };
-    let svg = eamos_exec::svg::trajectories(&slices.mission, &report.trajectories);
+    let svg = eamos_exec::svg::trajectories(&name, &report.trajectories);
     let svg_path = out.join("trajectories.svg");
     if let Err(e) = std::fs::write(&svg_path, svg) {
         eprintln!("warning: cannot write {}: {e}", svg_path.display());
@@ -261,7 +240,7 @@ pub fn run(args: Args) -> ExitCode {
         eprintln!("warning: {e}");
     }
     print_summary(
-        &slices,
+        &name,
         &report,
         &out,
         &clock_of(&fleet, &shown, args.speed),
@@ -277,13 +256,109 @@ pub fn run(args: Args) -> ExitCode {
     }
 }
 
-/// Action starts in each shown slice: the length of its progress bar
+/// What a run read: the mission, compiled and sliced, or one drone's
+/// slice from a slices directory.
+enum Loaded {
+    Mission(Mission),
+    Slice(Slice, eamos_fleet::Fleet),
+}
+
+/// What this process flies.
+struct Flight {
+    /// The mission's name.
+    name: String,
+    /// The mission's text, to locate what the logs say (not with a slice
+    /// read from a slices directory).
+    source: Option<eamos_lang::SourceFile>,
+    part: Part,
+    fleet: eamos_fleet::Fleet,
+    profiles: eamos_profile::ProfileTable,
+}
+
+enum Part {
+    /// Every peer, here (no `--drone`, no `--gcs`).
+    Whole(Slices),
+    /// One peer's slice.
+    One(Slice),
+}
+
+/// Reads what `args` name; on bad input, the exit status, once the reason
+/// is printed.
+fn load(args: &Args, colour: bool) -> Result<Loaded, ExitCode> {
+    if let (Some(dir), Some(drone)) = (&args.slices, &args.drone) {
+        return super::slices::read(dir, drone, args.fleet.as_deref())
+            .map(|(slice, fleet)| Loaded::Slice(slice, fleet))
+            .map_err(|e| bad_input(&e));
+    }
+    let Some(path) = &args.mission else {
+        return Err(bad_input("a mission file or --slices DIR is needed"));
+    };
+    if args.drone.is_some() {
+        // A drone's agent compiles and slices the mission, and does not
+        // check it: the proof is the ground station's (or the whole
+        // fleet's, or `eamos check`'s), made once for the fleet instead of
+        // once per drone. Nothing flies unchecked: a drone holds no token
+        // until the ground station starts the mission, which it does only
+        // once the mission passed its check (or the crew said
+        // `--allow-findings` to it), and only for the same mission and
+        // fleet, since every message is scoped by their identity. A fleet
+        // of a hundred drones in one process each on one computer then
+        // pays for one check, not a hundred.
+        mission::load(path, args.fleet.as_deref(), colour)
+    } else {
+        mission::load_to_fly(path, args.fleet.as_deref(), colour, args.allow_findings)
+    }
+    .map(Loaded::Mission)
+}
+
+/// What this process flies of what it read: the peer of `--drone` or
+/// `--gcs`, or every one.
+fn flight_of(loaded: Loaded, args: &Args) -> Result<Flight, String> {
+    let m = match loaded {
+        Loaded::Slice(slice, fleet) => {
+            return Ok(Flight {
+                name: slice.mission.clone(),
+                source: None,
+                part: Part::One(slice),
+                fleet,
+                profiles: eamos_profile::builtin(),
+            })
+        }
+        Loaded::Mission(m) => m,
+    };
+    let peer = match (&args.drone, args.gcs) {
+        (Some(d), _) => Some(d.as_str()),
+        (None, true) => Some(GCS),
+        (None, false) => None,
+    };
+    let name = m.slices.mission.clone();
+    let part = match peer {
+        None => Part::Whole(m.slices),
+        Some(p) => match m.slices.get(p) {
+            Some(s) => Part::One(s.clone()),
+            None => {
+                return Err(format!(
+                    "`{p}` is not a drone of {name} (its drones: {})",
+                    m.net.drones.join(", ")
+                ))
+            }
+        },
+    };
+    Ok(Flight {
+        name,
+        source: Some(m.source),
+        part,
+        fleet: m.fleet,
+        profiles: m.profiles,
+    })
+}
+
+/// Action starts in each flown slice: the length of its progress bar
 /// (`None` when a loop makes the number unknown before the flight).
-fn action_counts(slices: &Slices, shown: &[String]) -> Vec<(String, Option<u64>)> {
-    shown
+fn action_counts(flown: &[&Slice]) -> Vec<(String, Option<u64>)> {
+    flown
         .iter()
-        .map(|p| {
-            let s = slices.get(p).expect("every peer has a slice");
+        .map(|s| {
             let looping = s
                 .transitions
                 .iter()
@@ -293,7 +368,7 @@ fn action_counts(slices: &Slices, shown: &[String]) -> Vec<(String, Option<u64>)
                 .iter()
                 .filter(|t| matches!(t.transition.kind, TransitionKind::ActionStart(_)))
                 .count() as u64;
-            (p.clone(), (!looping).then_some(n))
+            (s.drone.clone(), (!looping).then_some(n))
         })
         .collect()
 }
@@ -460,7 +535,7 @@ fn clock_of(fleet: &eamos_fleet::Fleet, shown: &[String], speed: f64) -> String 
     }
 }
 
-fn print_summary(slices: &Slices, report: &RunReport, out: &Path, clock: &str) {
+fn print_summary(mission: &str, report: &RunReport, out: &Path, clock: &str) {
     let longest = report
         .reports
         .iter()
@@ -472,7 +547,7 @@ fn print_summary(slices: &Slices, report: &RunReport, out: &Path, clock: &str) {
         .all(|r| r.outcome == Outcome::Completed);
     println!(
         "{}: {} after {:.1} s of mission time ({:.1} s wall, {clock})",
-        slices.mission,
+        mission,
         if done {
             "completed"
         } else {
