@@ -1,32 +1,37 @@
-//! A large fleet, one process per drone, on one computer: `eamos gen`'s
-//! mission of [`DRONES`] drones, each flown by its own `eamos run --drone`,
-//! the ground station by `eamos run --gcs`, all joined through one zenoh
-//! router (`[zenoh] routers`, `eamos router`).
+//! A large fleet, one process per drone, on one computer, as a user runs
+//! it with no fleet file: [`DRONES`] drones, each flown by its own `eamos
+//! run --slices DIR --drone Dk` from the slices `eamos build --out DIR`
+//! cut once, and the ground station by `eamos run MISSION --gcs`, which
+//! compiles and checks the mission. Beyond 32 drones the default fleet
+//! joins through the ground station, which routes for the drones, instead
+//! of a full mesh (`Fleet::hub`).
 //!
-//! Start-up must scale: a drone's agent compiles and slices the mission but
-//! leaves its check to the ground station, and waits only to see the few
-//! peers it exchanges tokens or telemetry with, the ground station only for
-//! every drone's `ready` token. (When every agent also checked the whole
-//! mission and the ground station waited until every two peers saw each
-//! other, this fleet did not start within the time below: a check per
-//! process, and n² liveliness tokens each heard by n peers.)
+//! Start-up must scale: a drone's agent reads its own slice, and waits
+//! only to see the few peers it exchanges tokens or telemetry with, the
+//! ground station only for every drone's `ready` token. (When every agent
+//! compiled the mission, checked it, and the ground station waited until
+//! every two peers saw each other, a fleet of 50 did not start within a
+//! minute: a check per process, and n² liveliness tokens each heard by n
+//! peers; and a full mesh of 101 peers is 5,000 zenoh sessions.)
 //!
-//! Sized for a debug build on a 2-core machine: 50 drones. A hundred debug
-//! processes cost some 100 × 0.4 s of compile and slicing and 100 zenoh
-//! sessions before anything flies, more than this test's budget;
-//! `eamos bench-report --fleets` measures 100 and 250 with a release build.
+//! The two flights run one after the other: their default loopback ports
+//! are derived from their missions and may meet. `eamos bench-report
+//! --fleets` measures 50, 100 and 250 drones with a release build.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
-/// Drones of the mission, one process each.
-const DRONES: usize = 50;
+/// Drones of each mission, one process each.
+const DRONES: usize = 100;
 /// How long the ground station waits for every drone to be ready. The
 /// mission must have started by then, counted from the launch.
-const STARTUP: Duration = Duration::from_secs(45);
+const STARTUP: Duration = Duration::from_secs(60);
+
+static SERIAL: Mutex<()> = Mutex::new(());
 
 /// Processes killed when the test ends, however it ends.
 struct Processes(Vec<(String, Child)>);
@@ -44,14 +49,6 @@ fn eamos() -> Command {
     Command::new(env!("CARGO_BIN_EXE_eamos"))
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 fn log(dir: &Path, peer: &str) -> Vec<Value> {
     std::fs::read_to_string(dir.join("logs").join(format!("{peer}.mission.jsonl")))
         .unwrap_or_default()
@@ -64,100 +61,138 @@ fn count(log: &[Value], event: &str) -> usize {
     log.iter().filter(|r| r["event"] == event).count()
 }
 
+/// A fleet in flight: the drones first (D1 to D`DRONES`), the ground
+/// station last.
+struct Flight {
+    dir: PathBuf,
+    procs: Processes,
+    launched: Instant,
+}
+
+impl Flight {
+    /// Cuts `mission` into slices in `dir`, then launches a process per
+    /// drone and the ground station, all with the default fleet, at
+    /// `speed` times real time.
+    fn launch(dir: &Path, mission: &str, speed: &str) -> Flight {
+        let file = dir.join("mission.go");
+        std::fs::write(&file, mission).unwrap();
+        let slices = dir.join("slices");
+        let built = eamos()
+            .arg("build")
+            .arg(&file)
+            .arg("--out")
+            .arg(&slices)
+            .output()
+            .unwrap();
+        assert!(built.status.success(), "{built:?}");
+        let out = |name: &str| Stdio::from(std::fs::File::create(dir.join(name)).unwrap());
+        let launched = Instant::now();
+        let mut procs = Processes(Vec::new());
+        let roles = (1..=DRONES)
+            .map(|k| {
+                let d = format!("D{k}");
+                let args = vec![
+                    "--slices".into(),
+                    slices.clone().into_os_string(),
+                    "--drone".into(),
+                    d.clone().into(),
+                ];
+                (d, args)
+            })
+            .chain(std::iter::once((
+                "GCS".to_string(),
+                vec![file.clone().into_os_string(), "--gcs".into()],
+            )));
+        for (tag, role) in roles {
+            let child = eamos()
+                .arg("run")
+                .args(&role)
+                // Each drone counts its time limit from its own start and
+                // then waits for the ground station's start: generous, the
+                // start-up is bounded by the ground station's timeout.
+                .args(["--speed", speed, "--max-duration", "6000"])
+                .args(["--startup-timeout", &STARTUP.as_secs().to_string()])
+                .arg("--out")
+                .arg(dir.join("logs"))
+                .stdout(out(&format!("{tag}.out")))
+                .stderr(out(&format!("{tag}.err")))
+                .spawn()
+                .unwrap();
+            procs.0.push((tag, child));
+        }
+        Flight {
+            dir: dir.to_path_buf(),
+            procs,
+            launched,
+        }
+    }
+
+    /// When the ground station sent its first token: every drone was ready.
+    fn started(&mut self) -> Duration {
+        loop {
+            if count(&log(&self.dir, "GCS"), "bridge_sent") > 0 {
+                return self.launched.elapsed();
+            }
+            let gcs = &mut self.procs.0.last_mut().unwrap().1;
+            if let Some(status) = gcs.try_wait().unwrap() {
+                let err = std::fs::read_to_string(self.dir.join("GCS.err")).unwrap();
+                panic!("the ground station ended before the mission started ({status}): {err}");
+            }
+            assert!(
+                self.launched.elapsed() < STARTUP + Duration::from_secs(30),
+                "the mission did not start"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+
+    /// Waits for every process; each one's exit status with its output.
+    fn wait(&mut self, limit: Duration) -> Vec<(String, std::process::ExitStatus, String)> {
+        let deadline = Instant::now() + limit;
+        let mut ended = Vec::new();
+        for (tag, child) in self.procs.0.iter_mut() {
+            let status = loop {
+                if let Some(s) = child.try_wait().unwrap() {
+                    break s;
+                }
+                assert!(Instant::now() < deadline, "{tag} still running");
+                std::thread::sleep(Duration::from_millis(50));
+            };
+            let out = std::fs::read_to_string(self.dir.join(format!("{tag}.out"))).unwrap();
+            let err = std::fs::read_to_string(self.dir.join(format!("{tag}.err"))).unwrap();
+            ended.push((tag.clone(), status, format!("{out}\n{err}")));
+        }
+        ended
+    }
+
+    fn kill(&mut self, drone: &str) {
+        let (_, child) = self.procs.0.iter_mut().find(|(t, _)| t == drone).unwrap();
+        child.kill().unwrap();
+        child.wait().unwrap();
+    }
+}
+
 #[test]
-fn fifty_drones_in_a_process_each_start_within_the_startup_timeout_and_complete() {
+fn a_hundred_drones_in_a_process_each_with_the_default_fleet_start_and_complete() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
-    let mission = dir.join("fleet.go");
     let out = eamos()
         .args(["gen", "--drones", &DRONES.to_string()])
         .args(["--nodes", &(DRONES * 10).to_string(), "--seed", "12"])
         .output()
         .unwrap();
     assert!(out.status.success(), "{out:?}");
-    std::fs::write(&mission, &out.stdout).unwrap();
-    let fleet = dir.join("fleet.toml");
-    std::fs::write(
-        &fleet,
-        format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{}\"]\n", free_port()),
-    )
-    .unwrap();
-    let file = |name: &str| Stdio::from(std::fs::File::create(dir.join(name)).unwrap());
-
-    let launched = Instant::now();
-    let mut procs = Processes(Vec::new());
-    let router = eamos()
-        .args(["router", "--fleet"])
-        .arg(&fleet)
-        .args(["--router", "1"])
-        .stdout(Stdio::null())
-        .stderr(file("router.err"))
-        .spawn()
-        .unwrap();
-    procs.0.push(("router".into(), router));
-    let mut peers: Vec<(String, Vec<String>)> = (1..=DRONES)
-        .map(|k| (format!("D{k}"), vec!["--drone".into(), format!("D{k}")]))
-        .collect();
-    peers.push(("GCS".into(), vec!["--gcs".into()]));
-    for (tag, role) in &peers {
-        let child = eamos()
-            .arg("run")
-            .arg(&mission)
-            .arg("--fleet")
-            .arg(&fleet)
-            .args(role)
-            // Each drone counts its time limit from its own start and then
-            // waits for the ground station's start: generous, the start-up
-            // is bounded by the ground station's timeout below.
-            .args(["--speed", "50", "--max-duration", "6000"])
-            .args(["--startup-timeout", &STARTUP.as_secs().to_string()])
-            .arg("--out")
-            .arg(dir.join("logs"))
-            .stdout(file(&format!("{tag}.out")))
-            .stderr(file(&format!("{tag}.err")))
-            .spawn()
-            .unwrap();
-        procs.0.push((tag.clone(), child));
+    let mut flight = Flight::launch(dir.path(), &String::from_utf8(out.stdout).unwrap(), "50");
+    let started = flight.started();
+    for (tag, status, said) in flight.wait(Duration::from_secs(120)) {
+        assert!(status.success(), "{tag}: {status}\n{said}");
     }
-
-    // The ground station starts the mission (sends its first token) once
-    // every drone is ready.
-    let started = loop {
-        if count(&log(dir, "GCS"), "bridge_sent") > 0 {
-            break launched.elapsed();
-        }
-        let gcs = &mut procs.0.last_mut().unwrap().1;
-        if let Some(status) = gcs.try_wait().unwrap() {
-            let err = std::fs::read_to_string(dir.join("GCS.err")).unwrap();
-            panic!("the ground station ended before the mission started ({status}): {err}");
-        }
-        assert!(
-            launched.elapsed() < STARTUP + Duration::from_secs(30),
-            "the mission did not start"
-        );
-        std::thread::sleep(Duration::from_millis(50));
-    };
-
-    let deadline = Instant::now() + Duration::from_secs(120);
-    let (_, peers_and_router) = procs.0.split_first_mut().unwrap();
-    for (tag, child) in peers_and_router.iter_mut() {
-        let status = loop {
-            if let Some(s) = child.try_wait().unwrap() {
-                break s;
-            }
-            assert!(Instant::now() < deadline, "{tag} still running");
-            std::thread::sleep(Duration::from_millis(50));
-        };
-        let out = std::fs::read_to_string(dir.join(format!("{tag}.out"))).unwrap();
-        let err = std::fs::read_to_string(dir.join(format!("{tag}.err"))).unwrap();
-        assert!(status.success(), "{tag}: {status}\n{out}\n{err}");
-    }
-    let done = launched.elapsed();
-    let gcs = std::fs::read_to_string(dir.join("GCS.out")).unwrap();
+    let done = flight.launched.elapsed();
+    let gcs = std::fs::read_to_string(dir.path().join("GCS.out")).unwrap();
     assert!(gcs.starts_with("Stress: completed"), "{gcs}");
     // Every drone flew its part: each action it started also finished.
     for k in 1..=DRONES {
-        let log = log(dir, &format!("D{k}"));
+        let log = log(dir.path(), &format!("D{k}"));
         let started = count(&log, "action_started");
         assert!(started > 0, "D{k} started nothing");
         assert_eq!(started, count(&log, "action_finished"), "D{k}");
@@ -167,4 +202,81 @@ fn fifty_drones_in_a_process_each_start_within_the_startup_timeout_and_complete(
         started.as_secs_f64(),
         done.as_secs_f64()
     );
+}
+
+/// D1 hovers, then signals; every other drone waits for the signal in
+/// the air before it lands.
+fn waiting_on_one() -> String {
+    let mut m = String::from("package WaitOnOne\n\nvar (\n");
+    for k in 1..=DRONES {
+        m += &format!("\tD{k} Quadcopter\n");
+    }
+    m += ")\n\nfunc PAR_Mission() {\n";
+    for k in 1..=DRONES {
+        m += &format!("\tSEQ_D{k}()\n");
+    }
+    m += "}\n\nfunc SEQ_D1() {\n\tD1.Arm()\n\tD1.Takeoff(3)\n\tD1.Hover(3000)\n\tSignal(\"done\")\n\tD1.Land()\n}\n";
+    for k in 2..=DRONES {
+        m += &format!("\nfunc SEQ_D{k}() {{\n\tD{k}.Arm()\n\tD{k}.Takeoff(3)\n\tAwait(\"done\")\n\tD{k}.Land()\n}}\n");
+    }
+    m
+}
+
+#[test]
+fn a_drone_killed_among_a_hundred_is_reported_and_the_drones_waiting_on_it_land() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let mut dir = tempfile::tempdir().unwrap();
+    dir.disable_cleanup(true);
+    eprintln!("DIR {:?}", dir.path());
+    // At 10 times real time, a tenth of a second of a loaded machine is
+    // one second of the grace period measured below.
+    let mut flight = Flight::launch(dir.path(), &waiting_on_one(), "10");
+    flight.started();
+    // Killed once it hovers: every other drone is then waiting on it.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !log(dir.path(), "D1")
+        .iter()
+        .any(|r| r["event"] == "action_started" && r["action"] == "Hover")
+    {
+        assert!(Instant::now() < deadline, "D1 never hovered");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    flight.kill("D1");
+    let ended = flight.wait(Duration::from_secs(90));
+    for (tag, status, said) in &ended {
+        if tag != "D1" {
+            assert_eq!(
+                status.code(),
+                Some(1),
+                "{tag} must end without completing: {said}"
+            );
+        }
+    }
+    let gcs = log(dir.path(), "GCS");
+    assert!(
+        gcs.iter()
+            .any(|r| r["event"] == "peer_lost" && r["peer"] == "D1"),
+        "the ground station never said D1 was lost"
+    );
+    for k in 2..=DRONES {
+        let d = format!("D{k}");
+        let log = log(dir.path(), &d);
+        let stuck: Vec<&Value> = log.iter().filter(|r| r["event"] == "stuck").collect();
+        assert_eq!(stuck.len(), 1, "{d}: {stuck:?}");
+        assert_eq!(stuck[0]["lost"], serde_json::json!(["D1"]), "{d}");
+        // The default policy, after the default grace period.
+        assert_eq!(stuck[0]["policy"], "land", "{d}");
+        let lost = log
+            .iter()
+            .find(|r| r["event"] == "peer_lost" && r["peer"] == "D1")
+            .unwrap_or_else(|| panic!("{d} never saw D1 lost"));
+        let waited = stuck[0]["time"].as_f64().unwrap() - lost["time"].as_f64().unwrap();
+        assert!(
+            (3.5..=8.0).contains(&waited),
+            "{d} applied its policy {waited:.1} s of mission time after losing D1, not after the 5 s grace"
+        );
+        let failsafe: Vec<&Value> = log.iter().filter(|r| r["event"] == "failsafe").collect();
+        assert_eq!(failsafe.len(), 1, "{d}: {failsafe:?}");
+        assert_eq!(failsafe[0]["failsafe"], "land", "{d}");
+    }
 }

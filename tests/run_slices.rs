@@ -58,7 +58,10 @@ fn fleet(dir: &Path) -> PathBuf {
 
 fn build(fleet: Option<&Path>, out: &Path) -> Output {
     let mut cmd = eamos();
-    cmd.arg("build").arg(example("survey.go")).arg("--out").arg(out);
+    cmd.arg("build")
+        .arg(example("survey.go"))
+        .arg("--out")
+        .arg(out);
     if let Some(f) = fleet {
         cmd.arg("--fleet").arg(f);
     }
@@ -67,7 +70,10 @@ fn build(fleet: Option<&Path>, out: &Path) -> Output {
 
 fn run_slice(slices: &Path, drone: &str, fleet: Option<&Path>) -> Output {
     let mut cmd = eamos();
-    cmd.arg("run").arg("--slices").arg(slices).args(["--drone", drone]);
+    cmd.arg("run")
+        .arg("--slices")
+        .arg(slices)
+        .args(["--drone", drone]);
     if let Some(f) = fleet {
         cmd.arg("--fleet").arg(f);
     }
@@ -145,7 +151,10 @@ fn slices_cut_for_another_fleet_are_refused_with_the_file_and_the_remedy() {
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(err.contains("slice-Scout.bin"), "{err}");
-    assert!(err.contains("was not built for the fleet file given"), "{err}");
+    assert!(
+        err.contains("was not built for the fleet file given"),
+        "{err}"
+    );
     assert!(err.contains("--fleet FLEET.toml"), "{err}");
 
     // And the other way round.
@@ -175,9 +184,16 @@ fn a_directory_without_a_manifest_or_with_a_damaged_slice_is_named() {
     assert_eq!(o.status.code(), Some(2));
     assert!(stderr(&o).contains("slice-Scout.bin"), "{}", stderr(&o));
     // A slice file renamed to another drone's name is not that drone's.
-    std::fs::copy(slices.join("slice-Camera.bin"), slices.join("slice-Scout.bin")).unwrap();
+    std::fs::copy(
+        slices.join("slice-Camera.bin"),
+        slices.join("slice-Scout.bin"),
+    )
+    .unwrap();
     let err = stderr(&run_slice(&slices, "Scout", None));
-    assert!(err.contains("is the slice of Camera, not of Scout"), "{err}");
+    assert!(
+        err.contains("is the slice of Camera, not of Scout"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -42,6 +42,26 @@ impl Fleet {
                 mode: Mode::Client,
             };
         }
+        if self.hub(peers) {
+            let gcs = self.listen(mission_id, peers, GCS);
+            return if peer == GCS {
+                ZenohOptions {
+                    listen: gcs,
+                    connect: Vec::new(),
+                    scouting: false,
+                    tls: self.tls_files(peer),
+                    mode: Mode::Router,
+                }
+            } else {
+                ZenohOptions {
+                    listen: Vec::new(),
+                    connect: gcs,
+                    scouting: false,
+                    tls: self.tls_files(peer),
+                    mode: Mode::Client,
+                }
+            };
+        }
         let connect_given = if peer == GCS {
             self.gcs.connect.clone()
         } else {
@@ -63,6 +83,33 @@ impl Fleet {
             tls: self.tls_files(peer),
             mode: Mode::Peer,
         }
+    }
+
+    /// Whether the peers join through the ground station, which routes
+    /// for them, rather than as a full mesh: for a fleet of more than
+    /// [`MESH_DRONES`] drones whose file names neither routers nor any
+    /// endpoint nor TLS (routers over TLS are not supported yet): the
+    /// fleet a user gets without writing one.
+    ///
+    /// A mesh of `n` peers is `n (n - 1) / 2` zenoh sessions, each
+    /// declaring every peer's subscriptions and liveliness to every other:
+    /// 101 peers on one computer were about 5,000 sessions that did not
+    /// form within a minute. Through one router, `n` sessions. The price is
+    /// that losing the ground station then cuts the drones from each
+    /// other, where in a mesh they keep their bridges: a fleet flown for
+    /// real names its own routers, two of them (`[zenoh] routers`).
+    pub fn hub(&self, peers: &[String]) -> bool {
+        let drones = peers.iter().filter(|p| p.as_str() != GCS).count();
+        drones > MESH_DRONES
+            && self.zenoh.routers.is_empty()
+            && !self.zenoh.scouting
+            && self.zenoh.tls.is_none()
+            && self.gcs.listen.is_empty()
+            && self.gcs.connect.is_empty()
+            && self
+                .drones
+                .values()
+                .all(|d| d.zenoh.listen.is_empty() && d.zenoh.connect.is_empty())
     }
 
     /// How router number `n` (from 1, in the order of `[zenoh] routers`)
@@ -90,6 +137,11 @@ impl Fleet {
         })
     }
 }
+
+/// The largest fleet whose peers join as a full mesh by default: above
+/// it, through the ground station (see [`Fleet::hub`]). A mesh of 30
+/// drones formed in a few seconds; one of 100 did not within a minute.
+pub const MESH_DRONES: usize = 32;
 
 /// The loopback port of peer number `k` of a mission of `peers` peers
 /// (`k` = 0 for the ground station, 1 + the drone's index for a drone):
@@ -236,5 +288,54 @@ connect = "udpin:0.0.0.0:14550"
         let mesh = Fleet::default().zenoh_options("m", &peers, "D1");
         assert_eq!(mesh.mode, Mode::Peer);
         assert_eq!(mesh.connect.len(), 2);
+    }
+
+    fn fleet_of(drones: usize) -> Vec<String> {
+        std::iter::once("GCS".to_string())
+            .chain((1..=drones).map(|k| format!("D{k}")))
+            .collect()
+    }
+
+    #[test]
+    fn a_large_fleet_without_endpoints_joins_through_the_ground_station() {
+        let f = Fleet::default();
+        let small = fleet_of(MESH_DRONES);
+        assert!(!f.hub(&small));
+        assert_eq!(f.zenoh_options("m", &small, "D1").mode, Mode::Peer);
+
+        let large = fleet_of(MESH_DRONES + 1);
+        assert!(f.hub(&large));
+        let gcs = f.zenoh_options("m", &large, "GCS");
+        assert_eq!(gcs.mode, Mode::Router);
+        assert!(gcs.connect.is_empty());
+        let port = loopback_port("m", large.len(), 0);
+        assert_eq!(gcs.listen, [format!("tcp/127.0.0.1:{port}")]);
+        for drone in ["D1", "D33"] {
+            let d = f.zenoh_options("m", &large, drone);
+            assert_eq!(d.mode, Mode::Client, "{drone}");
+            assert!(d.listen.is_empty(), "{drone}");
+            assert_eq!(d.connect, gcs.listen, "{drone}");
+        }
+        // An observer (no peer of the mission) joins as the drones do.
+        let o = f.zenoh_options("m", &large, "observer");
+        assert_eq!((o.mode, o.connect), (Mode::Client, gcs.listen.clone()));
+    }
+
+    #[test]
+    fn a_fleet_file_that_names_endpoints_or_scouting_keeps_its_topology() {
+        let large = fleet_of(MESH_DRONES + 10);
+        for text in [
+            "[gcs]\nlisten = [\"tcp/127.0.0.1:9000\"]\n",
+            "[drones.D2]\nzenoh = { connect = [\"tcp/127.0.0.1:9001\"] }\n",
+            "[zenoh]\nscouting = true\n",
+        ] {
+            let f = Fleet::parse_unbound(text, "fleet.toml").unwrap();
+            assert!(!f.hub(&large), "{text}");
+            assert_eq!(
+                f.zenoh_options("m", &large, "D1").mode,
+                Mode::Peer,
+                "{text}"
+            );
+        }
     }
 }

@@ -67,10 +67,7 @@ pub fn run(args: Args) -> ExitCode {
     let me = format!("abort-{}", std::process::id());
     let issued_by = std::env::var("USER").unwrap_or_else(|_| "eamos abort".to_string());
     let command = AbortCommand::new(&slices.mission_id, &format!("{issued_by} ({me})"));
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match super::Runtime::new() {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };

@@ -62,10 +62,7 @@ pub fn run(args: Args) -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("error")),
         )
         .try_init();
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match super::Runtime::new() {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };

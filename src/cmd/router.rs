@@ -43,10 +43,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(o) => o,
         Err(e) => return bad_input(&format!("{name}: {e}")),
     };
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match super::Runtime::new() {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };

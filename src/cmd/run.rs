@@ -128,10 +128,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(l) => l,
         Err(status) => return status,
     };
-    let runtime = match tokio::runtime::Builder::new_multi_thread()
-        .enable_all()
-        .build()
-    {
+    let runtime = match super::Runtime::new() {
         Ok(r) => r,
         Err(e) => return bad_input(&format!("cannot start the async runtime: {e}")),
     };
@@ -239,12 +236,7 @@ pub fn run(args: Args) -> ExitCode {
     for e in &report.log_errors {
         eprintln!("warning: {e}");
     }
-    print_summary(
-        &name,
-        &report,
-        &out,
-        &clock_of(&fleet, &shown, args.speed),
-    );
+    print_summary(&name, &report, &out, &clock_of(&fleet, &shown, args.speed));
     if report
         .reports
         .iter()

@@ -73,7 +73,9 @@ pub fn read(dir: &Path, drone: &str, fleet: Option<&Path>) -> Result<(Slice, Fle
         ));
     }
     let fleet = match fleet {
-        Some(p) => Fleet::load(p, &manifest.mission, &manifest.drones).map_err(|e| e.to_string())?,
+        Some(p) => {
+            Fleet::load(p, &manifest.mission, &manifest.drones).map_err(|e| e.to_string())?
+        }
         None => Fleet::default(),
     };
     let file = dir.join(format!("slice-{drone}.bin"));

@@ -107,9 +107,19 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
         ("connect/endpoints", list(&options.connect)),
         ("scouting/multicast/enabled", scouting.to_string()),
         ("scouting/gossip/enabled", scouting.to_string()),
-        ("transport/unicast/lowlatency", "true".to_string()),
-        ("transport/unicast/qos/enabled", "false".to_string()),
     ];
+    // Low-latency links shave the mesh's latency. Through a router they
+    // are not used: a router whose hundred clients close their links at
+    // once (a fleet's mission ending, its drones landing on a lost peer)
+    // blocked on them, inside the runtime, for good, and heard no more.
+    // Both ends of a link must agree, and every peer of a routed fleet is
+    // a client or a router.
+    if options.mode == eamos_fleet::Mode::Peer {
+        settings.extend([
+            ("transport/unicast/lowlatency", "true".to_string()),
+            ("transport/unicast/qos/enabled", "false".to_string()),
+        ]);
+    }
     if options.mode == eamos_fleet::Mode::Client {
         // A drone may start before its routers do: it keeps trying them
         // instead of giving up (zenoh's clients give up at once by
