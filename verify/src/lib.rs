@@ -30,6 +30,7 @@ mod names;
 pub mod plan;
 pub mod pnml;
 mod ptnet;
+mod reduce;
 pub mod report;
 mod space;
 mod structural;
