@@ -106,7 +106,10 @@ pub(crate) fn reduce(net: &PtNet) -> Option<Reduced> {
             }
         }
     }
-    changed.then(|| pack(net, w))
+    // The rules keep `final`; a net without it would answer another
+    // question, so should one ever drop it the net stays as it is.
+    let final_kept = net.final_place.is_none_or(|f| w.place_alive[f as usize]);
+    (changed && final_kept).then(|| pack(net, w))
 }
 
 /// The working net packed into a [`PtNet`]: live places renumbered in
