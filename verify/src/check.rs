@@ -360,12 +360,17 @@ fn deadlock_alone(
         unreplayed = searched.is_err();
         if let Ok(mut report) = searched {
             if let Some(deadlock) = report.as_mut().and_then(|rep| rep.properties.first_mut()) {
+                let a = r.applied;
                 deadlock.notes.push(format!(
-                    "structural reductions left {} places and {} transitions of {} and {} before the search",
+                    "structural reductions left {} places and {} transitions of {} and {} before the search ({} fusions, {} places never marked, {} sink places, {} duplicate transitions)",
                     r.net.n_places(),
                     r.net.n_real,
                     pt.n_places(),
-                    pt.n_real
+                    pt.n_real,
+                    a.agglomerations,
+                    a.never_marked,
+                    a.sinks,
+                    a.duplicates
                 ));
             }
             return report;

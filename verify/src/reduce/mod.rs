@@ -41,6 +41,18 @@ pub(crate) struct Reduced {
     /// Per transition of `net`, its node in `origins`.
     roots: Vec<u32>,
     origins: Vec<Origin>,
+    /// How often each rule applied (said in the report, and the tests
+    /// see that each one is exercised).
+    pub applied: Applied,
+}
+
+/// How often each rule applied.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(crate) struct Applied {
+    pub agglomerations: usize,
+    pub never_marked: usize,
+    pub sinks: usize,
+    pub duplicates: usize,
 }
 
 impl Reduced {
@@ -76,17 +88,20 @@ pub(crate) fn reduce(net: &PtNet) -> Option<Reduced> {
         return None;
     }
     let mut w = Work::new(net);
-    let mut changed = false;
+    let mut applied = Applied::default();
     let mut queue: Vec<u32> = (0..net.n_places() as u32).rev().collect();
     let mut queued = vec![true; net.n_places()];
     loop {
         while let Some(p) = queue.pop() {
             queued[p as usize] = false;
             let mut touched = Vec::new();
-            let applied = redundant::try_never_marked(&mut w, p, &mut touched)
-                || redundant::try_sink(&mut w, p, &mut touched)
-                || agglomerate::try_place(&mut w, p, &mut touched);
-            changed |= applied;
+            if redundant::try_never_marked(&mut w, p, &mut touched) {
+                applied.never_marked += 1;
+            } else if redundant::try_sink(&mut w, p, &mut touched) {
+                applied.sinks += 1;
+            } else if agglomerate::try_place(&mut w, p, &mut touched) {
+                applied.agglomerations += 1;
+            }
             for q in touched {
                 if !queued[q as usize] && w.place_alive[q as usize] {
                     queued[q as usize] = true;
@@ -95,10 +110,11 @@ pub(crate) fn reduce(net: &PtNet) -> Option<Reduced> {
             }
         }
         let mut touched = Vec::new();
-        if !redundant::duplicates(&mut w, &mut touched) {
+        let twins = redundant::duplicates(&mut w, &mut touched);
+        if twins == 0 {
             break;
         }
-        changed = true;
+        applied.duplicates += twins;
         for q in touched {
             if !queued[q as usize] && w.place_alive[q as usize] {
                 queued[q as usize] = true;
@@ -109,12 +125,13 @@ pub(crate) fn reduce(net: &PtNet) -> Option<Reduced> {
     // The rules keep `final`; a net without it would answer another
     // question, so should one ever drop it the net stays as it is.
     let final_kept = net.final_place.is_none_or(|f| w.place_alive[f as usize]);
-    (changed && final_kept).then(|| pack(net, w))
+    let changed = applied != Applied::default();
+    (changed && final_kept).then(|| pack(net, w, applied))
 }
 
 /// The working net packed into a [`PtNet`]: live places renumbered in
 /// their original order, live transitions in theirs.
-fn pack(net: &PtNet, w: Work) -> Reduced {
+fn pack(net: &PtNet, w: Work, applied: Applied) -> Reduced {
     let mut index = vec![u32::MAX; net.n_places()];
     let mut places = Vec::new();
     let mut initial = Vec::new();
@@ -156,6 +173,7 @@ fn pack(net: &PtNet, w: Work) -> Reduced {
         net: PtNet::new(places, steps, raw, initial, final_place),
         roots,
         origins: w.origins,
+        applied,
     }
 }
 

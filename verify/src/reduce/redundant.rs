@@ -70,8 +70,9 @@ pub(super) fn try_sink(w: &mut Work, p: u32, touched: &mut Vec<u32>) -> bool {
 /// A transition's pre, read and post arcs, sorted.
 type ArcLists = (Vec<(u32, u32)>, Vec<(u32, u32)>, Vec<(u32, u32)>);
 
-/// Takes out every transition with the same arcs as an earlier one.
-pub(super) fn duplicates(w: &mut Work, touched: &mut Vec<u32>) -> bool {
+/// Takes out every transition with the same arcs as an earlier one;
+/// returns how many.
+pub(super) fn duplicates(w: &mut Work, touched: &mut Vec<u32>) -> usize {
     let mut seen: HashMap<ArcLists, u32> = HashMap::new();
     let mut twins = Vec::new();
     for (t, tr) in w.trs.iter().enumerate() {
@@ -88,5 +89,5 @@ pub(super) fn duplicates(w: &mut Work, touched: &mut Vec<u32>) -> bool {
     for &t in &twins {
         w.remove(t, touched);
     }
-    !twins.is_empty()
+    twins.len()
 }

@@ -7,7 +7,7 @@ use std::collections::{HashMap, VecDeque};
 
 use proptest::prelude::*;
 
-use super::{reduce, replay_to_deadlock};
+use super::{reduce, replay_to_deadlock, Applied};
 use crate::ptnet::PtNet;
 use crate::testnet::{self, Arcs};
 
@@ -119,7 +119,6 @@ fn build(places: usize, initial: &[bool], ts: &[Arcs], with_final: bool) -> PtNe
 }
 
 /// What one case came to.
-#[derive(PartialEq)]
 enum Case {
     /// Not 1-safe, or arcs of weight two: not what the rules are used on.
     Skipped,
@@ -127,6 +126,7 @@ enum Case {
     Unreduced,
     Reduced {
         deadlock: bool,
+        applied: Applied,
     },
 }
 
@@ -170,7 +170,10 @@ fn one_case(
             }
         }
     }
-    Ok(Case::Reduced { deadlock })
+    Ok(Case::Reduced {
+        deadlock,
+        applied: red.applied,
+    })
 }
 
 #[test]
@@ -184,13 +187,29 @@ fn reduced_nets_deadlock_exactly_when_the_original_does() {
     });
     let result = runner.run(&random(), |(places, initial, ts, with_final)| {
         let case = one_case(places, &initial, &ts, with_final).map_err(TestCaseError::fail)?;
-        let kind = match case {
-            Case::Skipped => "skipped",
-            Case::Unreduced => "unreduced",
-            Case::Reduced { deadlock: true } => "reduced, deadlock",
-            Case::Reduced { deadlock: false } => "reduced, no deadlock",
-        };
-        *counts.borrow_mut().entry(kind).or_insert(0usize) += 1;
+        let mut counts = counts.borrow_mut();
+        let mut see = |kind| *counts.entry(kind).or_insert(0usize) += 1;
+        match case {
+            Case::Skipped => see("skipped"),
+            Case::Unreduced => see("unreduced"),
+            Case::Reduced { deadlock, applied } => {
+                see(if deadlock {
+                    "reduced, deadlock"
+                } else {
+                    "reduced, no deadlock"
+                });
+                for (rule, n) in [
+                    ("agglomeration", applied.agglomerations),
+                    ("never marked", applied.never_marked),
+                    ("sink", applied.sinks),
+                    ("duplicate", applied.duplicates),
+                ] {
+                    if n > 0 {
+                        see(rule);
+                    }
+                }
+            }
+        }
         Ok(())
     });
     if let Err(e) = result {
@@ -199,7 +218,14 @@ fn reduced_nets_deadlock_exactly_when_the_original_does() {
     // A generator drifted into nets no rule touches would pass for ever.
     let counts = counts.into_inner();
     println!("cases: {counts:?}");
-    for (kind, min) in [("reduced, deadlock", 2000), ("reduced, no deadlock", 500)] {
+    for (kind, min) in [
+        ("reduced, deadlock", 2000),
+        ("reduced, no deadlock", 500),
+        ("agglomeration", 1000),
+        ("never marked", 200),
+        ("sink", 1000),
+        ("duplicate", 30),
+    ] {
         let n = counts.get(kind).copied().unwrap_or(0);
         assert!(n >= min, "only {n} cases {kind}, want {min}: {counts:?}");
     }
