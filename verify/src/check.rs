@@ -17,6 +17,11 @@
 //! net that turns out not to be 1-safe (PNML input, or a compiler bug) is
 //! explored again in full with token counters, which also decides
 //! boundedness.
+//!
+//! Asked only about deadlocks ([`Goal::Deadlock`]), the check runs the
+//! portfolio of `deadlock_alone` instead, on the net shrunk by the
+//! structural rules of `crate::reduce` (unless the shortest deadlock is
+//! asked); what it shows is always a trace of the original net.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
