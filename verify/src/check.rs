@@ -17,12 +17,18 @@
 //! net that turns out not to be 1-safe (PNML input, or a compiler bug) is
 //! explored again in full with token counters, which also decides
 //! boundedness.
+//!
+//! Asked only about deadlocks ([`Goal::Deadlock`]), the check runs the
+//! portfolio of `deadlock_alone` instead, on the net shrunk by the
+//! structural rules of `crate::reduce` (unless the shortest deadlock is
+//! asked); what it shows is always a trace of the original net.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, VecDeque};
 use std::sync::Arc;
 
 use crate::explore::{self, Bits, Bytes, Config, Encoding, Exploration, Stop};
 use crate::ptnet::{MonitorKind, PtNet};
+use crate::reduce::Unreplayable;
 use crate::report::{
     Finding, FindingKind, InputKind, Label, Limit, Property, PropertyResult, Report, Stats, Step,
     Trace, Verdict,
@@ -48,6 +54,10 @@ pub struct Options {
     pub space: Option<crate::Space>,
     /// What to decide: everything, or only whether a deadlock is reachable.
     pub goal: Goal,
+    /// Structural reductions of the net before a search for a deadlock
+    /// alone ([`Goal::Deadlock`], not the shortest): on by default; off to
+    /// search the net as it is, for comparison.
+    pub structural: bool,
 }
 
 /// States of the first, short deadlock search of [`Goal::Deadlock`], per
@@ -77,6 +87,7 @@ impl Default for Options {
             spatial: true,
             space: None,
             goal: Goal::All,
+            structural: true,
         }
     }
 }
@@ -87,6 +98,7 @@ impl std::fmt::Debug for Options {
             .field("reduction", &self.reduction)
             .field("max_memory_mb", &self.max_memory_mb)
             .field("goal", &self.goal)
+            .field("structural", &self.structural)
             .finish()
     }
 }
@@ -189,7 +201,9 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
     };
 
     if let Goal::Deadlock { shortest } = opts.goal {
-        if let Some(report) = deadlock_alone(&mut ctx, &name, &pt, &mut cfg, shortest) {
+        if let Some(report) =
+            deadlock_alone(&mut ctx, &name, &pt, &mut cfg, shortest, opts.structural)
+        {
             return report;
         }
     }
@@ -324,54 +338,146 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
 /// A deadlock found is real whatever the net: every step of its path was
 /// fired with its outputs checked for a second token. "No deadlock" needs
 /// the net 1-safe, as the invariants' clauses do.
+///
+/// With `structural`, the searches and the invariants work on the net
+/// reduced by [`crate::reduce`] (not for a shortest deadlock, whose length
+/// fused steps would hide), and a deadlock found there is shown as the
+/// original net's trace, replayed on it first. Should that replay fail (a
+/// rule's bug), the net as it is answers.
 fn deadlock_alone(
     ctx: &mut Ctx,
     name: &str,
     pt: &PtNet,
     cfg: &mut Config,
     shortest: bool,
+    structural: bool,
 ) -> Option<Report> {
     if !pt.fits_bits() {
         return None;
     }
+    let reduced = (structural && !shortest)
+        .then(|| crate::reduce::reduce(pt))
+        .flatten()
+        .filter(|r| r.net.fits_bits());
+    let mut unreplayed = false;
+    if let Some(r) = &reduced {
+        let searched = portfolio(ctx, name, pt, Some(r), cfg, shortest);
+        unreplayed = searched.is_err();
+        if let Ok(mut report) = searched {
+            if let Some(deadlock) = report.as_mut().and_then(|rep| rep.properties.first_mut()) {
+                let a = r.applied;
+                deadlock.notes.push(format!(
+                    "structural reductions left {} places and {} transitions of {} and {} before the search ({} fusions, {} places never marked, {} sink places, {} duplicate transitions)",
+                    r.net.n_places(),
+                    r.net.n_real,
+                    pt.n_places(),
+                    pt.n_real,
+                    a.agglomerations,
+                    a.never_marked,
+                    a.sinks,
+                    a.duplicates
+                ));
+            }
+            return report;
+        }
+    }
+    let mut report = portfolio(ctx, name, pt, None, cfg, shortest).unwrap_or(None);
+    if let Some(deadlock) = report
+        .as_mut()
+        .and_then(|rep| rep.properties.first_mut())
+        .filter(|_| unreplayed)
+    {
+        deadlock.notes.push(UNREPLAYED.into());
+    }
+    report
+}
+
+/// Said when a deadlock of the reduced net did not replay on the
+/// original, which the rules' soundness excludes: the answer is then the
+/// unreduced search's, and the note asks for the net that showed it.
+pub const UNREPLAYED: &str = "a counterexample of the structurally reduced net did not replay on the net (a bug of the reductions, please report it with this net): the net was searched as it is";
+
+/// A deadlock of the reduced net whose trace does not replay on the
+/// original net.
+struct Unreplayed;
+
+/// The portfolio of [`deadlock_alone`] on `pt`, or on its reduced net.
+fn portfolio(
+    ctx: &mut Ctx,
+    name: &str,
+    pt: &PtNet,
+    reduced: Option<&crate::reduce::Reduced>,
+    cfg: &mut Config,
+    shortest: bool,
+) -> Result<Option<Report>, Unreplayed> {
+    let net = reduced.map_or(pt, |r| &r.net);
     let dfs = "depth-first search for a deadlock, stubborn sets";
-    let report = |ctx: &mut Ctx, ex: &Exploration, method: &str| {
-        ctx.deadlock_only(name.to_string(), pt, ex, method)
-    };
+    let report =
+        |ctx: &mut Ctx, ex: &Exploration, method: &str| -> Result<Option<Report>, Unreplayed> {
+            let at_end = |d: u32| net.final_place.is_some_and(|f| ex.store.tokens(d, f) > 0);
+            let dead = match ex.dead.iter().find(|&&d| !at_end(d)) {
+                None => None,
+                Some(&d) => {
+                    let path = ex.store.path(d);
+                    match reduced {
+                        None => Some((path, ex.store.marking(d))),
+                        Some(r) => {
+                            let trace = r.expand(&path);
+                            match crate::reduce::replay_to_deadlock(pt, &trace) {
+                                Ok(m) => Some((trace, m)),
+                                Err(Unreplayable::SecondToken) => return Ok(None),
+                                Err(Unreplayable::NotADeadlock) => return Err(Unreplayed),
+                            }
+                        }
+                    }
+                }
+            };
+            Ok(Some(ctx.deadlock_only(
+                name.to_string(),
+                pt,
+                ex,
+                dead,
+                method,
+            )))
+        };
     let mut quick = None;
     if !shortest {
-        let budget = QUICK_SEARCH_PER_NODE * (pt.n_places() + pt.n_real);
-        let ex = explore::deadlock::search::<Bits>(pt, cfg.reduction, cfg.max_bytes, budget);
+        let budget = QUICK_SEARCH_PER_NODE * (net.n_places() + net.n_real);
+        let ex = explore::deadlock::search::<Bits>(net, cfg.reduction, cfg.max_bytes, budget);
         if !ex.dead.is_empty() {
-            return Some(report(ctx, &ex, dfs));
+            return report(ctx, &ex, dfs);
         }
         if matches!(ex.stop, Some(Stop::Unsafe { .. })) {
-            return None;
+            return Ok(None);
         }
         quick = Some(ex);
     }
+    // The original net's 1-safety: a reduced net is 1-safe when the
+    // original is (see `crate::reduce`), so its searches count right.
     if !Concurrency::compute(pt).unsafe_candidates().is_empty() {
-        return None;
+        return Ok(None);
     }
     if let Some(ex) = quick.filter(|ex| ex.complete()) {
-        return Some(report(ctx, &ex, dfs));
+        return report(ctx, &ex, dfs);
     }
-    if let Some(why) = crate::invariants::deadlock_free(pt) {
-        let ex = Exploration::new::<Bits>(pt, 0);
-        let mut r = report(ctx, &ex, "place invariants and SAT");
-        r.properties[0].notes.push(why);
-        return Some(r);
+    if let Some(why) = crate::invariants::deadlock_free(net) {
+        let ex = Exploration::new::<Bits>(net, 0);
+        let mut r = report(ctx, &ex, "place invariants and SAT")?;
+        if let Some(deadlock) = r.as_mut().and_then(|rep| rep.properties.first_mut()) {
+            deadlock.notes.push(why);
+        }
+        return Ok(r);
     }
     let (ex, method) = if shortest {
         cfg.keep_edges = false;
         cfg.first_deadlock = true;
         let method = "breadth-first search for a deadlock, stubborn sets";
-        (explore::explore::<Bits>(pt, cfg), method)
+        (explore::explore::<Bits>(net, cfg), method)
     } else {
-        let ex = explore::deadlock::search::<Bits>(pt, cfg.reduction, cfg.max_bytes, usize::MAX);
+        let ex = explore::deadlock::search::<Bits>(net, cfg.reduction, cfg.max_bytes, usize::MAX);
         (ex, dfs)
     };
-    Some(report(ctx, &ex, method))
+    report(ctx, &ex, method)
 }
 
 struct Ctx {
@@ -757,7 +863,11 @@ impl Ctx {
     }
 
     fn deadlock_finding<E: Encoding>(&self, net: &PtNet, ex: &Exploration, d: u32) -> Finding {
-        let m = &ex.store.marking(d);
+        self.deadlock_finding_at::<E>(net, &ex.store.path(d), &ex.store.marking(d))
+    }
+
+    /// The finding for the dead marking `m` that `path` reaches on `net`.
+    fn deadlock_finding_at<E: Encoding>(&self, net: &PtNet, path: &[u32], m: &[u64]) -> Finding {
         let mut labels: Vec<Label> = Vec::new();
         let mut blocked: BTreeSet<u32> = BTreeSet::new();
         E::for_each_marked(m, |p| {
@@ -834,7 +944,11 @@ impl Ctx {
             message,
             labels,
             notes: Vec::new(),
-            trace: Some(self.trace::<E>(net, ex, d)),
+            trace: Some(Trace {
+                steps: path.iter().map(|&t| step(net, t)).collect(),
+                cycle_from: None,
+                marking: marking::<E>(net, m),
+            }),
             geometry: None,
         }
     }
@@ -1007,17 +1121,21 @@ impl Ctx {
     /// The report of a search for a deadlock alone: found (with its
     /// counterexample), proved absent (the search ran to its end), or
     /// undecided.
+    ///
+    /// `dead` is the deadlock found, as a trace of `net` and the dead
+    /// marking it reaches there (the search may have run on a reduced
+    /// net, whose `ex` gives the verdict's other half and the counts).
     fn deadlock_only(
         &mut self,
         name: String,
         net: &PtNet,
         ex: &Exploration,
+        dead: Option<(Vec<u32>, Vec<u64>)>,
         method: &str,
     ) -> Report {
-        let at_end = |d: u32| net.final_place.is_some_and(|f| ex.store.tokens(d, f) > 0);
-        let verdict = if let Some(&d) = ex.dead.iter().find(|&&d| !at_end(d)) {
+        let verdict = if let Some((path, m)) = dead {
             self.findings
-                .push(self.deadlock_finding::<Bits>(net, ex, d));
+                .push(self.deadlock_finding_at::<Bits>(net, &path, &m));
             Verdict::Violated
         } else if ex.complete() {
             Verdict::Holds

@@ -6,7 +6,8 @@
 //! hold or not, colours and time are ignored, see [`mission`]) and explores
 //! its reachable markings breadth-first with stubborn sets ([`explore`]
 //! states what the reduction preserves and why). [`check`] says which
-//! property is decided how. Counterexamples are firing sequences from the
+//! property is decided how; asked only about deadlocks, it first shrinks
+//! the net with structural rules (`reduce`) and maps what it finds back. Counterexamples are firing sequences from the
 //! initial marking, named in mission terms and with the transitions' ids so
 //! that the token game can replay them.
 //!
@@ -30,6 +31,7 @@ mod names;
 pub mod plan;
 pub mod pnml;
 mod ptnet;
+mod reduce;
 pub mod report;
 mod space;
 mod structural;
