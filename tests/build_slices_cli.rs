@@ -80,5 +80,10 @@ fn build_json_carries_the_slice_statistics_and_the_slice_files() {
             ("Drone2".to_string(), 7, 8)
         ]
     );
-    assert_eq!(v["slices_written"].as_array().unwrap().len(), 9);
+    // Three files per peer, and the manifest `eamos run --slices` reads.
+    let written = v["slices_written"].as_array().unwrap();
+    assert_eq!(written.len(), 10);
+    assert!(written
+        .iter()
+        .any(|p| p.as_str().unwrap().ends_with("slices.json")));
 }

@@ -280,3 +280,51 @@ fn a_drone_killed_among_a_hundred_is_reported_and_the_drones_waiting_on_it_land(
         assert_eq!(failsafe[0]["failsafe"], "land", "{d}");
     }
 }
+
+#[test]
+fn an_abort_reaches_each_of_a_hundred_drones_once() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut flight = Flight::launch(dir.path(), &waiting_on_one(), "10");
+    flight.started();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !log(dir.path(), "D1")
+        .iter()
+        .any(|r| r["event"] == "action_started" && r["action"] == "Hover")
+    {
+        assert!(Instant::now() < deadline, "D1 never hovered");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // Joins through the ground station, as a client, like every drone.
+    let out = eamos()
+        .arg("abort")
+        .arg(dir.path().join("mission.go"))
+        .args(["--timeout", "30"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let peers = DRONES + 1;
+    assert!(
+        stdout.contains(&format!(
+            "abort sent to {peers} peers ({peers} up), 0 not acknowledged"
+        )),
+        "{stdout}"
+    );
+    for (tag, status, said) in flight.wait(Duration::from_secs(90)) {
+        assert_eq!(status.code(), Some(1), "{tag} must end aborted: {said}");
+    }
+    for k in 1..=DRONES {
+        let d = format!("D{k}");
+        let log = log(dir.path(), &d);
+        assert_eq!(count(&log, "abort_received"), 1, "{d}");
+        let failsafe: Vec<&Value> = log.iter().filter(|r| r["event"] == "failsafe").collect();
+        assert_eq!(failsafe.len(), 1, "{d}: {failsafe:?}");
+        assert_eq!(failsafe[0]["failsafe"], "land", "{d}");
+    }
+    assert_eq!(count(&log(dir.path(), "GCS"), "abort_received"), 1);
+}

@@ -52,42 +52,35 @@ pub struct FleetRun {
     pub drone_pss_median_kib: u64,
     /// Compiling and cutting the slices once, before the launch.
     pub cut: Duration,
-    /// What the router read and wrote over the flight (from the launch to
-    /// the end), as the kernel counts its system calls; `None` where it
-    /// does not say.
-    pub router: Option<RouterIo>,
+    /// The loopback interface's traffic over the flight (from the launch
+    /// to the end): every frame of the fleet goes through the router on
+    /// it, once in and once out. `None` where the kernel does not say.
+    pub loopback: Option<Traffic>,
 }
 
-/// A process's input and output as the kernel counts them
-/// (`/proc/PID/io`): the router's are the fleet's frames through it.
+/// Packets and bytes a network interface received, as the kernel counts
+/// them (`/proc/net/dev`): on loopback every packet sent is received once,
+/// TCP's acknowledgements included.
 #[derive(Debug, Clone, Copy, Default)]
-pub struct RouterIo {
-    pub read_calls: u64,
-    pub write_calls: u64,
-    pub read_bytes: u64,
-    pub written_bytes: u64,
+pub struct Traffic {
+    pub packets: u64,
+    pub bytes: u64,
 }
 
 #[cfg(target_os = "linux")]
-fn io_of(pid: u32) -> Option<RouterIo> {
-    let text = std::fs::read_to_string(format!("/proc/{pid}/io")).ok()?;
-    let field = |name: &str| -> Option<u64> {
-        text.lines()
-            .find_map(|l| l.strip_prefix(name))?
-            .trim()
-            .parse()
-            .ok()
-    };
-    Some(RouterIo {
-        read_calls: field("syscr:")?,
-        write_calls: field("syscw:")?,
-        read_bytes: field("rchar:")?,
-        written_bytes: field("wchar:")?,
-    })
+fn loopback() -> Option<Traffic> {
+    let text = std::fs::read_to_string("/proc/net/dev").ok()?;
+    let line = text
+        .lines()
+        .find_map(|l| l.trim_start().strip_prefix("lo:"))?;
+    let mut fields = line.split_whitespace().map(|f| f.parse::<u64>().ok());
+    let bytes = fields.next()??;
+    let packets = fields.next()??;
+    Some(Traffic { packets, bytes })
 }
 
 #[cfg(not(target_os = "linux"))]
-fn io_of(_pid: u32) -> Option<RouterIo> {
+fn loopback() -> Option<Traffic> {
     None
 }
 
@@ -275,6 +268,7 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
     };
 
     let launched = Instant::now();
+    let traffic_before = loopback();
     let mut router = Group(Vec::new());
     let mut cmd = command(exe, &peak("router"), false);
     cmd.args(["router", "--fleet"])
@@ -359,7 +353,13 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         std::thread::sleep(Duration::from_millis(20));
     }
     let to_end = launched.elapsed();
-    let router_io = router.0.first().and_then(|r| io_of(r.id()));
+    let traffic = match (traffic_before, loopback()) {
+        (Some(a), Some(b)) => Some(Traffic {
+            packets: b.packets.saturating_sub(a.packets),
+            bytes: b.bytes.saturating_sub(a.bytes),
+        }),
+        _ => None,
+    };
     drop(peers);
     drop(router);
     let said = std::fs::read_to_string(&gcs_log).unwrap_or_default();
@@ -388,6 +388,6 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         drone_pss_max_kib: pss.last().copied().unwrap_or(0),
         drone_pss_median_kib: pss.get(pss.len() / 2).copied().unwrap_or(0),
         cut,
-        router: router_io,
+        loopback: traffic,
     })
 }

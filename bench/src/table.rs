@@ -665,13 +665,11 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
     let private_met = (f.completed && f.drone_private_max_kib > 0 && f.gcs_private_kib > 0)
         .then(|| mb(f.drone_private_max_kib.max(f.gcs_private_kib)) <= goal::FLEET_PROCESS_MB);
     let flown = f.to_end.as_secs_f64().max(1e-3);
-    let through = f.router.map_or("not measured".to_string(), |io| {
+    let through = f.loopback.map_or("not measured".to_string(), |t| {
         format!(
-            "{:.0} reads and {:.0} writes a second ({:.2} MB/s in, {:.2} MB/s out)",
-            io.read_calls as f64 / flown,
-            io.write_calls as f64 / flown,
-            io.read_bytes as f64 / flown / 1e6,
-            io.written_bytes as f64 / flown / 1e6
+            "{:.0} packets a second, {:.2} MB/s",
+            t.packets as f64 / flown,
+            t.bytes as f64 / flown / 1e6
         )
     });
     vec![
@@ -725,7 +723,7 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
             ),
         ),
         row(
-            format!("{what}: through the router, from the launch to the end (socket and file system calls, as the kernel counts them)"),
+            format!("{what}: on the loopback interface, from the launch to the end (every frame goes through the router, once in, once out; TCP's acknowledgements included)"),
             through,
         ),
     ]

@@ -85,6 +85,23 @@ impl Fleet {
         }
     }
 
+    /// How a process that is no peer of the mission joins its network (a
+    /// monitor, `eamos abort`): as a client of the routers, or of the
+    /// ground station when it routes (see [`Fleet::hub`]); in a mesh, by
+    /// connecting to every peer's endpoints while listening on none, so
+    /// that it never takes a peer's port.
+    pub fn outsider_options(&self, mission_id: &str, peers: &[String]) -> ZenohOptions {
+        let mut options = self.zenoh_options(mission_id, peers, OUTSIDER);
+        if options.mode == Mode::Peer {
+            options.listen = Vec::new();
+            options.connect = peers
+                .iter()
+                .flat_map(|p| self.listen(mission_id, peers, p))
+                .collect();
+        }
+        options
+    }
+
     /// Whether the peers join through the ground station, which routes
     /// for them, rather than as a full mesh: for a fleet of more than
     /// [`MESH_DRONES`] drones whose file names neither routers nor any
@@ -137,6 +154,9 @@ impl Fleet {
         })
     }
 }
+
+/// The name [`Fleet::outsider_options`] asks for: no peer's.
+const OUTSIDER: &str = "\u{0}outsider";
 
 /// The largest fleet whose peers join as a full mesh by default: above
 /// it, through the ground station (see [`Fleet::hub`]). A mesh of 30
@@ -316,9 +336,24 @@ connect = "udpin:0.0.0.0:14550"
             assert!(d.listen.is_empty(), "{drone}");
             assert_eq!(d.connect, gcs.listen, "{drone}");
         }
-        // An observer (no peer of the mission) joins as the drones do.
-        let o = f.zenoh_options("m", &large, "observer");
+        // A monitor or `eamos abort` joins as the drones do.
+        let o = f.outsider_options("m", &large);
         assert_eq!((o.mode, o.connect), (Mode::Client, gcs.listen.clone()));
+        assert!(o.listen.is_empty());
+        // In a mesh, it connects to every peer and takes no peer's port.
+        let o = f.outsider_options("m", &small);
+        assert_eq!(o.mode, Mode::Peer);
+        assert!(o.listen.is_empty());
+        assert_eq!(o.connect.len(), small.len());
+        // Through routers, as their client.
+        let routed =
+            Fleet::parse_unbound("[zenoh]\nrouters = [\"tcp/10.0.0.1:7447\"]\n", "fleet.toml")
+                .unwrap();
+        let o = routed.outsider_options("m", &large);
+        assert_eq!(
+            (o.mode, o.connect),
+            (Mode::Client, vec!["tcp/10.0.0.1:7447".to_string()])
+        );
     }
 
     #[test]

@@ -56,14 +56,11 @@ pub fn run(args: Args) -> ExitCode {
         Err(e) => return bad_input(&format!("cannot sign the abort: {e}")),
     };
     let peers = runner::peers(&slices);
-    // Connect to every peer's endpoints, listen on none: this command is
-    // nobody's peer and must not take the ground station's port.
-    let mut options = fleet.zenoh_options(&slices.mission_id, &peers, GCS);
-    options.connect = peers
-        .iter()
-        .flat_map(|p| fleet.listen(&slices.mission_id, &peers, p))
-        .collect();
-    options.listen = Vec::new();
+    // This command is nobody's peer: it must not take the ground
+    // station's port, and joins through the fleet's routers when it has
+    // them. Over TLS it presents the ground station's certificate.
+    let mut options = fleet.outsider_options(&slices.mission_id, &peers);
+    options.tls = fleet.tls_files(GCS);
     let me = format!("abort-{}", std::process::id());
     let issued_by = std::env::var("USER").unwrap_or_else(|_| "eamos abort".to_string());
     let command = AbortCommand::new(&slices.mission_id, &format!("{issued_by} ({me})"));

@@ -70,12 +70,9 @@ pub async fn observe(
 ) -> Result<eamos_exec::transport::observe::Observer, String> {
     let id = &mission.slices.mission_id;
     let peers = eamos_exec::runner::peers(&mission.slices);
-    // Named as no peer is, it connects to every peer's endpoints (the
-    // ground station's too) or to the fleet's routers.
-    let mut options =
-        mission
-            .fleet
-            .zenoh_options(id, &peers, eamos_exec::transport::observe::OBSERVER);
+    // No peer of the mission: it connects to every peer's endpoints (the
+    // ground station's too), or to whoever routes for the fleet.
+    let mut options = mission.fleet.outsider_options(id, &peers);
     // Over TLS it shows the ground station's certificate: the monitor runs
     // where the ground station does, and its abort is the ground
     // station's too.
@@ -93,15 +90,9 @@ pub fn abort_with(mission: &Mission, key: eamos_seal::GroundKey) -> eamos_monito
     let id = mission.slices.mission_id.clone();
     let name = mission.slices.mission.clone();
     let peers = eamos_exec::runner::peers(&mission.slices);
-    // Connect to every peer's endpoints, listen on none, as `eamos abort`.
-    let mut options = mission
-        .fleet
-        .zenoh_options(&id, &peers, eamos_exec::transport::GCS);
-    options.connect = peers
-        .iter()
-        .flat_map(|p| mission.fleet.listen(&id, &peers, p))
-        .collect();
-    options.listen = Vec::new();
+    // Joined as `eamos abort` joins.
+    let mut options = mission.fleet.outsider_options(&id, &peers);
+    options.tls = mission.fleet.tls_files(eamos_exec::transport::GCS);
     std::sync::Arc::new(move || {
         let (sealer, id, name, peers, options) = (
             sealer.clone(),
