@@ -220,3 +220,55 @@ fn slices_need_a_drone_and_exclude_a_mission_file() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
     }
 }
+
+#[test]
+fn a_drone_whose_router_is_down_stops_on_ctrl_c_having_flown_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    // A router nobody runs: the drone's agent keeps trying it.
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(
+        &fleet,
+        format!("[zenoh]\nrouters = [\"tcp/127.0.0.1:{}\"]\n", free_port()),
+    )
+    .unwrap();
+    let slices = dir.path().join("slices");
+    assert!(build(Some(&fleet), &slices).status.success());
+    let mut procs = Processes(Vec::new());
+    let child = eamos()
+        .arg("run")
+        .arg("--slices")
+        .arg(&slices)
+        .args(["--drone", "Scout", "--fleet"])
+        .arg(&fleet)
+        .arg("--out")
+        .arg(dir.path().join("logs"))
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(dir.path().join("Scout.err")).unwrap())
+        .spawn()
+        .unwrap();
+    let pid = child.id().to_string();
+    procs.0.push(("Scout".into(), child));
+    std::thread::sleep(Duration::from_secs(2));
+    assert!(Command::new("kill")
+        .args(["-INT", &pid])
+        .status()
+        .unwrap()
+        .success());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = procs.0[0].1.try_wait().unwrap() {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "the agent did not stop within 10 s of Ctrl-C"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let err = std::fs::read_to_string(dir.path().join("Scout.err")).unwrap();
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("stopped before Scout joined the mission's network"),
+        "{err}"
+    );
+}

@@ -116,6 +116,12 @@ pub enum RunError {
     Profile { drone: String, profile: String },
     #[error("`{0}` is not a peer of this mission (its peers: {1})")]
     UnknownPeer(String, String),
+    /// Stopped (Ctrl-C) while it was still joining the mission's network:
+    /// a client of routers that are down keeps trying them, so without
+    /// this a drone's agent could not be stopped but by killing it.
+    /// Nothing was flown.
+    #[error("stopped before {peer} joined the mission's network (nothing was flown)")]
+    StoppedJoining { peer: String },
     #[error(transparent)]
     Transport(#[from] TransportError),
     #[error(transparent)]
@@ -663,16 +669,20 @@ pub async fn run_peer(
     );
     record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
-    let e = endpoint(
+    let opening = endpoint(
         slice,
         &all,
         fleet,
         TransportKind::Zenoh,
         &hub,
         options.faults,
-    )
-    .await
-    .map(|e| partitioned(e, options))?;
+    );
+    let e = tokio::select! {
+        e = opening => e.map(|e| partitioned(e, options))?,
+        () = options.stop.cancelled() => {
+            return Err(RunError::StoppedJoining { peer: peer.to_string() })
+        }
+    };
     tokio::spawn(publish::drain(outbox, e.link.clone()));
     let journal = journals.get(peer);
     let (b, delivered) = start_bridges(

@@ -226,6 +226,11 @@ pub fn run(args: Args) -> ExitCode {
     });
     let report = match result {
         Ok(r) => r,
+        // Not bad input: the crew stopped it, as it may stop a flight.
+        Err(e @ runner::RunError::StoppedJoining { .. }) => {
+            eprintln!("{e}");
+            return ExitCode::from(1);
+        }
         Err(e) => return bad_input(&e.to_string()),
     };
     let svg = eamos_exec::svg::trajectories(&name, &report.trajectories);

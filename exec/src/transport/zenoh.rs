@@ -171,7 +171,15 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
 /// taken is said as such, since zenoh's own words name its source files
 /// and the crew needs the port.
 async fn open_session(options: &ZenohOptions, who: &str) -> Result<zenoh::Session, TransportError> {
-    zenoh::open(config(options)?).await.map_err(|e| {
+    // zenoh opens a session by blocking the thread that awaits it (a
+    // client keeps trying its routers as long as none answers): on a task
+    // of its own, so that whoever waits for it can give up (Ctrl-C).
+    let config = config(options)?;
+    let opening = tokio::spawn(async move { zenoh::open(config).await });
+    let opened = opening
+        .await
+        .map_err(|e| TransportError::Open(format!("the session's opening failed: {e}")))?;
+    opened.map_err(|e| {
         let e = e.to_string();
         if e.contains("Address already in use") {
             TransportError::PortTaken {
