@@ -77,7 +77,12 @@ fn run_slice(slices: &Path, drone: &str, fleet: Option<&Path>) -> Output {
     if let Some(f) = fleet {
         cmd.arg("--fleet").arg(f);
     }
-    cmd.args(["--max-duration", "1"]).output().unwrap()
+    // Its logs, should it fly, stay in the test's directory.
+    cmd.args(["--max-duration", "1"])
+        .arg("--out")
+        .arg(slices.join("logs"))
+        .output()
+        .unwrap()
 }
 
 fn stderr(o: &Output) -> String {
