@@ -309,6 +309,20 @@ impl Fleet {
         Ok(fleet)
     }
 
+    /// The fleet file a command was given, read as [`Fleet::load`] reads
+    /// it, or the default fleet when it was given none (every drone
+    /// simulated, loopback endpoints).
+    pub fn load_or_default(
+        path: Option<&Path>,
+        mission: &str,
+        drones: &[String],
+    ) -> Result<Fleet, FleetError> {
+        match path {
+            Some(path) => Fleet::load(path, mission, drones),
+            None => Ok(Fleet::default()),
+        }
+    }
+
     /// Reads an agent's fleet file before any mission is known: checked
     /// against the drones it names itself (against the mission's drones
     /// once a slice says which they are), its paths resolved as

@@ -106,18 +106,16 @@ pub fn run(args: Args) -> ExitCode {
             // reuses its memory instead of adding to it.
             drop(mission);
             let net_stats = eamos_petri::stats::stats(&net);
-            let bound = match &args.fleet {
-                Some(path) => eamos_fleet::Fleet::load(path, &net.name, &net.drones)
-                    .map_err(|e| e.to_string()),
-                None => Ok(eamos_fleet::Fleet::default()),
-            }
-            .and_then(|fleet| {
-                let net_id = eamos_slicer::net_id(&net);
-                let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
-                eamos_slicer::slice_as(&net, id.as_str())
-                    .map(|slices| (slices, net_id))
-                    .map_err(|e| format!("cannot slice the net of {}: {e}", source.name))
-            });
+            let bound =
+                eamos_fleet::Fleet::load_or_default(args.fleet.as_deref(), &net.name, &net.drones)
+                    .map_err(|e| e.to_string())
+                    .and_then(|fleet| {
+                        let net_id = eamos_slicer::net_id(&net);
+                        let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
+                        eamos_slicer::slice_as(&net, id.as_str())
+                            .map(|slices| (slices, net_id))
+                            .map_err(|e| format!("cannot slice the net of {}: {e}", source.name))
+                    });
             let (slices, net_id) = match bound {
                 Ok(s) => s,
                 Err(message) => {

@@ -44,12 +44,8 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     let compiled =
         eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let fleet = match fleet {
-        Some(path) => {
-            Fleet::load(path, &net.name, &net.drones).map_err(|e| bad_input(&e.to_string()))?
-        }
-        None => Fleet::default(),
-    };
+    let fleet = Fleet::load_or_default(fleet, &net.name, &net.drones)
+        .map_err(|e| bad_input(&e.to_string()))?;
     // Cut under the identity of the net and the fleet: peers built from
     // another mission or fleet file refuse these slices.
     let slices = eamos_fleet::identity::slice(&net, &fleet)

@@ -72,12 +72,8 @@ pub fn read(dir: &Path, drone: &str, fleet: Option<&Path>) -> Result<(Slice, Fle
             manifest.drones.join(", ")
         ));
     }
-    let fleet = match fleet {
-        Some(p) => {
-            Fleet::load(p, &manifest.mission, &manifest.drones).map_err(|e| e.to_string())?
-        }
-        None => Fleet::default(),
-    };
+    let fleet = Fleet::load_or_default(fleet, &manifest.mission, &manifest.drones)
+        .map_err(|e| e.to_string())?;
     let file = dir.join(format!("slice-{drone}.bin"));
     let bytes = std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     let slice = Slice::from_bytes(&bytes).map_err(|e| format!("{}: {e}", file.display()))?;

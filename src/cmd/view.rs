@@ -58,13 +58,11 @@ pub fn run(args: Args) -> ExitCode {
         );
     }
     let net = eamos_petri::compile(&compiled.mission, &profiles);
-    let fleet = match &args.fleet {
-        Some(path) => match eamos_fleet::Fleet::load(path, &net.name, &net.drones) {
+    let fleet =
+        match eamos_fleet::Fleet::load_or_default(args.fleet.as_deref(), &net.name, &net.drones) {
             Ok(f) => f,
             Err(e) => return bad_input(&e.to_string()),
-        },
-        None => eamos_fleet::Fleet::default(),
-    };
+        };
     let (model, findings) = model_of(&source, &net, &profiles, &fleet, true);
     let output = args.output.unwrap_or_else(|| {
         let stem = args
