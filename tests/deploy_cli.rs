@@ -22,6 +22,10 @@ use eamos_rollout::{self as rollout, Answer, Delivery, RollOut};
 use eamos_seal::{GroundKey, Sealed, CONTEXT_SLICE, CONTEXT_START};
 use eamos_slicer::Slices;
 
+#[path = "common/processes.rs"]
+mod processes;
+use processes::free_port;
+
 const DRONES: [&str; 2] = ["Drone1", "Drone2"];
 
 /// The drones of `examples/dropout.go`, whose Lead flies 100 m: long
@@ -38,14 +42,6 @@ fn paper(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/missions/paper")
         .join(name)
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 /// Kills the agents it still holds when dropped.

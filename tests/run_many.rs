@@ -19,11 +19,15 @@
 //! --fleets` measures 50, 100 and 250 drones with a release build.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
+
+#[path = "common/processes.rs"]
+mod processes;
+use processes::Processes;
 
 /// Drones of each mission, one process each.
 const DRONES: usize = 100;
@@ -32,18 +36,6 @@ const DRONES: usize = 100;
 const STARTUP: Duration = Duration::from_secs(60);
 
 static SERIAL: Mutex<()> = Mutex::new(());
-
-/// Processes killed when the test ends, however it ends.
-struct Processes(Vec<(String, Child)>);
-
-impl Drop for Processes {
-    fn drop(&mut self) {
-        for (_, c) in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
-}
 
 fn eamos() -> Command {
     Command::new(env!("CARGO_BIN_EXE_eamos"))
@@ -222,25 +214,29 @@ fn waiting_on_one() -> String {
     m
 }
 
-#[test]
-fn a_drone_killed_among_a_hundred_is_reported_and_the_drones_waiting_on_it_land() {
-    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
-    let mut dir = tempfile::tempdir().unwrap();
-    dir.disable_cleanup(true);
-    eprintln!("DIR {:?}", dir.path());
-    // At 10 times real time, a tenth of a second of a loaded machine is
-    // one second of the grace period measured below.
-    let mut flight = Flight::launch(dir.path(), &waiting_on_one(), "10");
+/// [`waiting_on_one`] flown from `dir` at 10 times real time (a tenth of
+/// a second of a loaded machine is then one second of mission time, as
+/// the grace period is measured), once D1 hovers: every other drone is
+/// then waiting on it in the air.
+fn hovering(dir: &Path) -> Flight {
+    let mut flight = Flight::launch(dir, &waiting_on_one(), "10");
     flight.started();
-    // Killed once it hovers: every other drone is then waiting on it.
     let deadline = Instant::now() + Duration::from_secs(60);
-    while !log(dir.path(), "D1")
+    while !log(dir, "D1")
         .iter()
         .any(|r| r["event"] == "action_started" && r["action"] == "Hover")
     {
         assert!(Instant::now() < deadline, "D1 never hovered");
         std::thread::sleep(Duration::from_millis(20));
     }
+    flight
+}
+
+#[test]
+fn a_drone_killed_among_a_hundred_is_reported_and_the_drones_waiting_on_it_land() {
+    let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let mut flight = hovering(dir.path());
     flight.kill("D1");
     let ended = flight.wait(Duration::from_secs(90));
     for (tag, status, said) in &ended {
@@ -285,16 +281,7 @@ fn a_drone_killed_among_a_hundred_is_reported_and_the_drones_waiting_on_it_land(
 fn an_abort_reaches_each_of_a_hundred_drones_once() {
     let _one_at_a_time = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
-    let mut flight = Flight::launch(dir.path(), &waiting_on_one(), "10");
-    flight.started();
-    let deadline = Instant::now() + Duration::from_secs(60);
-    while !log(dir.path(), "D1")
-        .iter()
-        .any(|r| r["event"] == "action_started" && r["action"] == "Hover")
-    {
-        assert!(Instant::now() < deadline, "D1 never hovered");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let mut flight = hovering(dir.path());
     // Joins through the ground station, as a client, like every drone.
     let out = eamos()
         .arg("abort")

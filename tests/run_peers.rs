@@ -3,29 +3,20 @@
 //! computers. Each process has a time limit; all are killed if one fails.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use assert_cmd::cargo::CommandCargoExt;
 use serde_json::Value;
 
+#[path = "common/processes.rs"]
+mod processes;
+use processes::Processes;
+
 fn paper(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/missions/paper")
         .join(name)
-}
-
-/// Kills every process it still holds when dropped (a failed assertion
-/// must not leave agents behind).
-struct Processes(Vec<(String, Child)>);
-
-impl Drop for Processes {
-    fn drop(&mut self) {
-        for (_, c) in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
 }
 
 fn peers(mission: &str) -> (Vec<String>, Vec<(String, usize, usize)>) {

@@ -11,6 +11,10 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 
+#[path = "common/processes.rs"]
+mod processes;
+use processes::free_port;
+
 /// Processes killed when the test ends, however it ends.
 struct Processes(Vec<Child>);
 
@@ -25,14 +29,6 @@ impl Drop for Processes {
 
 fn eamos() -> Command {
     Command::new(env!("CARGO_BIN_EXE_eamos"))
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
 }
 
 fn experiment_c() -> PathBuf {

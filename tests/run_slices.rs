@@ -4,10 +4,14 @@
 //! refuses, naming the file, slices cut for another fleet or damaged.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 use assert_cmd::cargo::CommandCargoExt;
+
+#[path = "common/processes.rs"]
+mod processes;
+use processes::{free_port, Processes};
 
 fn example(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -17,27 +21,6 @@ fn example(name: &str) -> PathBuf {
 
 fn eamos() -> Command {
     Command::cargo_bin("eamos").unwrap()
-}
-
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
-/// Kills what it still holds when dropped: a failed assertion leaves no
-/// agent behind.
-struct Processes(Vec<(String, Child)>);
-
-impl Drop for Processes {
-    fn drop(&mut self) {
-        for (_, c) in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
 }
 
 /// A fleet file for the survey example with ports of its own, so that no

@@ -11,6 +11,10 @@ use std::time::{Duration, Instant};
 use assert_cmd::cargo::CommandCargoExt;
 use serde_json::Value;
 
+#[path = "common/processes.rs"]
+mod processes;
+use processes::Processes;
+
 fn paper(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../shared/missions/paper")
@@ -97,18 +101,6 @@ fn fleet_dir(strangers: &[&str]) -> tempfile::TempDir {
     }
     std::fs::write(dir.path().join("fleet.toml"), FLEET).unwrap();
     dir
-}
-
-/// Kills every process it still holds when dropped.
-struct Processes(Vec<(String, Child)>);
-
-impl Drop for Processes {
-    fn drop(&mut self) {
-        for (_, c) in &mut self.0 {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-    }
 }
 
 fn spawn(fleet: &Path, out: &Path, role: &[&str], extra: &[&str]) -> Child {

@@ -21,6 +21,7 @@ mod agreement;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 
+use agreement::mission::compile;
 use agreement::{agree, agree_every_way, cases, ends_clean, mission, net, oracle};
 use eamos_oracle::Answer;
 use eamos_petri::net::{GuardKind, Net};
@@ -116,17 +117,6 @@ fn on_random_nets_of_any_shape_check_and_the_oracle_agree() {
         ("not 1-safe", 0.02),
         ("guard", 0.25),
     ]);
-}
-
-/// Compiles a mission; the text is in the error when the front end
-/// refuses it (the generator must not write such missions).
-fn compile(text: &str, profiles: &ProfileTable) -> Result<Net, String> {
-    let file = eamos_lang::SourceFile::new("random.go", text.to_string());
-    let compiled = eamos_lang::compile(&file, profiles).map_err(|d| {
-        let why = eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN);
-        format!("does not compile:\n{why}\n{text}")
-    })?;
-    Ok(eamos_petri::compile(&compiled.mission, profiles))
 }
 
 #[test]

@@ -19,6 +19,7 @@ mod agreement;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 
+use agreement::mission::compile;
 use agreement::net::{Arcs, RandomNet};
 use agreement::{cases, replay_to_deadlock};
 use eamos_oracle::Answer;
@@ -186,17 +187,6 @@ fn on_random_nets_the_reductions_keep_the_deadlock_verdict_and_its_trace() {
         n,
         &[("reduced, deadlock", 0.3), ("reduced, no deadlock", 0.01)],
     );
-}
-
-/// Compiles a mission; the text is in the error when the front end
-/// refuses it.
-fn compile(text: &str, profiles: &ProfileTable) -> Result<Net, String> {
-    let file = eamos_lang::SourceFile::new("random.go", text.to_string());
-    let compiled = eamos_lang::compile(&file, profiles).map_err(|d| {
-        let why = eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN);
-        format!("does not compile:\n{why}\n{text}")
-    })?;
-    Ok(eamos_petri::compile(&compiled.mission, profiles))
 }
 
 #[test]

@@ -7,6 +7,8 @@
 //! that can never hold or always holds. Unlike `eamos gen`'s missions, they
 //! are not meant to fly: they are meant to find the corners.
 
+use eamos_petri::net::Net;
+use eamos_profile::ProfileTable;
 use rand::seq::IndexedRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -218,4 +220,15 @@ impl Gen {
         });
         name
     }
+}
+
+/// Compiles a mission; the text is in the error when the front end
+/// refuses it (the generators must not write such missions).
+pub fn compile(text: &str, profiles: &ProfileTable) -> Result<Net, String> {
+    let file = eamos_lang::SourceFile::new("random.go", text.to_string());
+    let compiled = eamos_lang::compile(&file, profiles).map_err(|d| {
+        let why = eamos_lang::render_all(&d, &file, eamos_lang::Style::PLAIN);
+        format!("does not compile:\n{why}\n{text}")
+    })?;
+    Ok(eamos_petri::compile(&compiled.mission, profiles))
 }
