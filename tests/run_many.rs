@@ -309,6 +309,14 @@ fn an_abort_reaches_each_of_a_hundred_drones_once() {
         let d = format!("D{k}");
         let log = log(dir.path(), &d);
         assert_eq!(count(&log, "abort_received"), 1, "{d}");
+        // Each drone lands and leaves: it does not wait out its flush
+        // (10 s of wall time, 100 s of mission time) on copies of the
+        // abort nobody acknowledges. When every drone passed the abort on
+        // to every other, 10,000 copies through the ground station, each
+        // did, and the ground station left before them.
+        let time = |e: &str| log.iter().find(|r| r["event"] == e).unwrap()["time"].as_f64();
+        let ended = time("stopped").unwrap() - time("abort_received").unwrap();
+        assert!(ended < 60.0, "{d} ended {ended:.0} s after the abort");
         let failsafe: Vec<&Value> = log.iter().filter(|r| r["event"] == "failsafe").collect();
         assert_eq!(failsafe.len(), 1, "{d}: {failsafe:?}");
         assert_eq!(failsafe[0]["failsafe"], "land", "{d}");

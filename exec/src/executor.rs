@@ -86,6 +86,12 @@ pub struct ExecutorOptions {
     /// Where this agent journals what it does, and what the journal held
     /// when it started (see [`crate::journal`]).
     pub journal: Option<AgentJournal>,
+    /// Whether an abort that arrives is passed on to every other peer. In
+    /// a mesh it reaches a drone cut off from its sender through another
+    /// drone. A client of a router has no path the sender lacks, and 100
+    /// clients passing it on were 10,000 copies through one router, which
+    /// none of them saw acknowledged within its flush.
+    pub pass_on_aborts: bool,
 }
 
 impl Default for ExecutorOptions {
@@ -101,6 +107,7 @@ impl Default for ExecutorOptions {
             abort_opener: None,
             abort_sealer: None,
             journal: None,
+            pass_on_aborts: true,
         }
     }
 }

@@ -31,8 +31,8 @@ use crate::transport::faulty::{Faults, FaultyLink, Partition};
 use crate::transport::inproc::InProcessHub;
 use crate::transport::publish;
 use crate::transport::reliable::{Bridges, RetransmitPolicy};
-use crate::transport::{zenoh, Endpoint, TransportError, GCS};
-use eamos_fleet::{AdapterKind, Fleet};
+use crate::transport::{zenoh, Endpoint, Link, TransportError, GCS};
+use eamos_fleet::{AdapterKind, Fleet, Mode};
 
 /// Which link the peers of a one-process run talk over.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -503,6 +503,7 @@ fn executor_options(peers: Vec<String>, options: &RunOptions) -> ExecutorOptions
         liveness: Liveness::default(),
         abort_opener: options.abort_opener.clone(),
         abort_sealer: options.abort_sealer.clone(),
+        pass_on_aborts: true,
     }
 }
 
@@ -693,6 +694,7 @@ pub async fn run_peer(
         journal,
     );
     let b = Arc::new(b);
+    let link = e.link.clone();
     let agent = Agent {
         slice: slice.clone(),
         drone: built.adapters.get(peer).cloned(),
@@ -703,13 +705,19 @@ pub async fn run_peer(
         telemetry: e.telemetry,
         events,
     };
+    let router_for = (peer == GCS && fleet.hub(&all)).then(|| slice.drones.clone());
+    let mode = fleet.zenoh_options(&slice.mission_id, &all, peer).mode;
     let mut exec_options = executor_options(all, options);
+    exec_options.pass_on_aborts = mode != Mode::Client;
     exec_options.journal = journal.cloned();
     exec_options.liveness = fleet.liveness(peer);
     let report = Executor::new(agent, exec_options).run().await;
     // Peers whose acknowledgement from us was lost retransmit: stay a
     // moment to acknowledge them again.
     tokio::time::sleep(options.linger).await;
+    if let Some(drones) = router_for {
+        route_until_gone(link.as_ref(), &drones, &options.stop, ROUTING_AFTER_END).await;
+    }
     paths_stop.cancel();
     drop(b);
     let trajectories = paths.paths();
@@ -721,6 +729,50 @@ pub async fn run_peer(
         wall: wall.elapsed(),
         log_errors,
     })
+}
+
+/// How long at most the ground station of a hub fleet keeps routing
+/// once its own run has ended: a simulated drone's failsafe and its last
+/// flush take seconds; a real drone landing from altitude, a minute.
+const ROUTING_AFTER_END: Duration = Duration::from_secs(120);
+
+/// The ground station of a hub fleet is the drones' router (see
+/// [`Fleet::hub`]): it stays until none of `drones` is up any more (a
+/// monitor watching does not hold it), `limit` at most, or until stopped. When it left as soon as its own run ended, an
+/// abort among 100 drones cut off every drone still passing the abort on
+/// or landing: each waited out its flush in silence, and `eamos abort`
+/// heard from only some of them.
+async fn route_until_gone(
+    link: &dyn Link,
+    drones: &[String],
+    stop: &CancellationToken,
+    limit: Duration,
+) {
+    let Some(mut presence) = link.presence() else {
+        return;
+    };
+    let waiting = async {
+        loop {
+            let up = {
+                let now = presence.borrow_and_update();
+                drones.iter().filter(|d| now.contains(*d)).count()
+            };
+            if up == 0 {
+                return;
+            }
+            tracing::info!("routing for {up} drones still up");
+            if presence.changed().await.is_err() {
+                return;
+            }
+        }
+    };
+    tokio::select! {
+        () = waiting => {}
+        () = tokio::time::sleep(limit) => {
+            tracing::warn!("stopped routing for the drones after {} s", limit.as_secs());
+        }
+        () = stop.cancelled() => {}
+    }
 }
 
 #[cfg(test)]

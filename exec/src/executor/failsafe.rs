@@ -242,7 +242,9 @@ impl Executor {
                     from: from.to_string(),
                     reason: reason.clone(),
                 });
-                self.abort_peers(Some(from), colour.to_vec());
+                if self.options.pass_on_aborts {
+                    self.abort_peers(Some(from), colour.to_vec());
+                }
                 self.ended = Some(Outcome::Aborted { reason });
             }
             Err(reason) => {

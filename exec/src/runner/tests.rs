@@ -343,3 +343,58 @@ async fn the_end_goes_through_the_ground_station_one_notice_per_peer() {
         }
     }
 }
+
+/// The ground station of a hub fleet routes for the drones: it leaves
+/// once the last drone has, not before, and not for an outsider.
+#[tokio::test(start_paused = true)]
+async fn a_hub_ground_station_routes_until_the_last_drone_has_left() {
+    use crate::transport::inproc::InProcessHub;
+    use std::time::Duration;
+    let hub = InProcessHub::new();
+    let gcs = hub.connect("GCS", &[]);
+    let (_d1, _d2, _monitor) = (
+        hub.connect("D1", &[]),
+        hub.connect("D2", &[]),
+        hub.connect("monitor", &[]),
+    );
+    let drones = ["D1".to_string(), "D2".to_string()];
+    let stop = tokio_util::sync::CancellationToken::new();
+    let limit = Duration::from_secs(120);
+    let mut routing = Box::pin(super::route_until_gone(
+        gcs.link.as_ref(),
+        &drones,
+        &stop,
+        limit,
+    ));
+    let second = Duration::from_secs(1);
+    let still = tokio::time::timeout(10 * second, &mut routing).await;
+    assert!(still.is_err(), "left with both drones up");
+    hub.leave("D1");
+    let still = tokio::time::timeout(second, &mut routing).await;
+    assert!(still.is_err(), "left with D2 up");
+    hub.leave("D2");
+    // The monitor is still up: it does not hold the ground station.
+    tokio::time::timeout(second, routing)
+        .await
+        .expect("still routing once every drone had left");
+}
+
+/// A drone that never leaves holds the ground station `limit` at most,
+/// and Ctrl-C sooner.
+#[tokio::test(start_paused = true)]
+async fn a_hub_ground_station_stops_routing_after_its_limit_or_when_stopped() {
+    use crate::transport::inproc::InProcessHub;
+    use std::time::Duration;
+    let hub = InProcessHub::new();
+    let gcs = hub.connect("GCS", &[]);
+    let _d1 = hub.connect("D1", &[]);
+    let drones = ["D1".to_string()];
+    let stop = tokio_util::sync::CancellationToken::new();
+    let began = tokio::time::Instant::now();
+    super::route_until_gone(gcs.link.as_ref(), &drones, &stop, Duration::from_secs(120)).await;
+    assert_eq!(began.elapsed().as_secs(), 120);
+    stop.cancel();
+    let began = tokio::time::Instant::now();
+    super::route_until_gone(gcs.link.as_ref(), &drones, &stop, Duration::from_secs(120)).await;
+    assert_eq!(began.elapsed().as_secs(), 0);
+}
