@@ -404,7 +404,10 @@ async fn endpoint(
         TransportKind::InProcess => hub.connect(peer, &reads),
         TransportKind::Zenoh => {
             let opts = fleet.zenoh_options(&slice.mission_id, all, peer);
-            zenoh::open(&slice.mission_id, peer, &reads, &opts)
+            // A drone follows only the peers it may wait on; the ground
+            // station, every peer.
+            let follow = (peer != GCS).then(|| crate::liveness::neighbours(slice));
+            zenoh::open_following(&slice.mission_id, peer, &reads, follow.as_deref(), &opts)
                 .await
                 .map_err(|e| match e {
                     TransportError::PortTaken {

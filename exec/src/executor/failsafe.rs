@@ -87,7 +87,7 @@ impl Executor {
 
     /// Applies the fleet's policy if this drone, with nothing left to do on
     /// its own, waits on a peer lost for the grace period (or has lost every
-    /// peer, the ground station included, and must decide alone).
+    /// neighbour, the ground station included, and must decide alone).
     pub(super) fn check_lost(&mut self) {
         if self.ended.is_some() {
             return;
@@ -115,7 +115,13 @@ impl Executor {
             &self.alive.delivered,
             &lost,
         ));
-        let mut others = self.options.peers.iter().filter(|p| **p != me).peekable();
+        // A drone follows its neighbours only (a link may tell it of
+        // nobody else): it is cut off once it has lost them all.
+        let followed = match self.drone {
+            Some(_) => liveness::neighbours(&self.slice),
+            None => self.options.peers.clone(),
+        };
+        let mut others = followed.iter().filter(|p| **p != me).peekable();
         let isolated = others.peek().is_some() && others.all(|p| lost.contains(p));
         if isolated && self.drone.is_none() {
             // The ground station with every peer gone, each for the grace

@@ -26,14 +26,16 @@
 
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::time::Duration;
 
 use async_trait::async_trait;
 use tokio::sync::{mpsc, watch, Notify};
 use zenoh::liveliness::LivelinessToken;
+use zenoh::matching::{MatchingListener, MatchingStatus};
 use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::sample::SampleKind;
+use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
 use super::{Endpoint, Frame, FrameHandler, Link, PeerId, TelemetryFrame, TransportError};
@@ -219,16 +221,33 @@ pub async fn route(
 }
 
 /// Opens a zenoh peer for `me` in `mission`, subscribed to the tokens and
-/// acks addressed to it and to the telemetry of the drones in `reads`.
+/// acks addressed to it and to the telemetry of the drones in `reads`,
+/// following whether every other peer is up: the ground station, an
+/// observer, `eamos abort`.
 pub async fn open(
     mission: &str,
     me: &str,
     reads: &[PeerId],
     options: &ZenohOptions,
 ) -> Result<Endpoint, TransportError> {
+    open_following(mission, me, reads, None, options).await
+}
+
+/// [`open`], following only whether the peers in `follow` are up (a
+/// drone: its [`crate::liveness::neighbours`], every peer it may ever wait
+/// on), when given. Following every peer, each of 250 drones heard every
+/// other's liveliness tokens come and go, its presence set recomputed at
+/// each: the fleet's work at start grew as the cube of its size.
+pub async fn open_following(
+    mission: &str,
+    me: &str,
+    reads: &[PeerId],
+    follow: Option<&[PeerId]>,
+    options: &ZenohOptions,
+) -> Result<Endpoint, TransportError> {
     check_chunk("mission id", mission)?;
     check_chunk("peer name", me)?;
-    for r in reads {
+    for r in reads.iter().chain(follow.unwrap_or_default()) {
         check_chunk("peer name", r)?;
     }
     let session = open_session(options, me).await?;
@@ -279,35 +298,31 @@ pub async fn open(
     let seen = alive.clone();
     let mission_owned = mission.to_string();
     let me_owned = me.to_string();
-    let alive_sub = session
-        .liveliness()
-        .declare_subscriber(format!("eamos/{mission}/*/alive"))
-        .history(true)
-        .callback(move |sample| {
-            let Some(peer) = alive_peer(&mission_owned, sample.key_expr().as_str()) else {
-                return;
-            };
-            let mut peers = seen.peers.lock().expect("alive lock");
-            tracing::debug!("{me_owned}: {peer} is {}", up_or_gone(sample.kind()));
-            match sample.kind() {
-                SampleKind::Put => {
-                    peers.insert(peer.to_string());
-                }
-                SampleKind::Delete => {
-                    peers.remove(peer);
-                }
+    let on_alive = move |sample: Sample| {
+        let Some(peer) = alive_peer(&mission_owned, sample.key_expr().as_str()) else {
+            return;
+        };
+        let mut peers = seen.peers.lock().expect("alive lock");
+        tracing::debug!("{me_owned}: {peer} is {}", up_or_gone(sample.kind()));
+        match sample.kind() {
+            SampleKind::Put => {
+                peers.insert(peer.to_string());
             }
-            presence_tx.send_replace(peers.iter().cloned().collect());
-            seen.changed.notify_waiters();
-        })
-        .await
-        .map_err(|e| TransportError::Open(e.to_string()))?;
+            SampleKind::Delete => {
+                peers.remove(peer);
+            }
+        }
+        presence_tx.send_replace(peers.iter().cloned().collect());
+        seen.changed.notify_waiters();
+    };
+    let keys = followed(me, follow).map(|who| format!("eamos/{mission}/{who}/alive"));
+    let alive_subs = follow_tokens(&session, keys, on_alive).await?;
     let token = session
         .liveliness()
         .declare_token(key(mission, me, "alive"))
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
-    let version = announce_version(&session, mission, me, alive.clone()).await?;
+    let version = announce_version(&session, mission, me, follow, alive.clone()).await?;
     let state: Arc<Mutex<BTreeMap<&'static str, Vec<u8>>>> = Arc::default();
     let state_queryable = {
         let (state, at) = (state.clone(), key(mission, me, "state"));
@@ -334,10 +349,11 @@ pub async fn open(
         mission: mission.to_string(),
         session,
         publishers: tokio::sync::Mutex::new(HashMap::new()),
+        streams: tokio::sync::Mutex::new(HashMap::new()),
         handler,
         alive,
         _subscribers: subscribers,
-        _alive_subscriber: alive_sub,
+        _alive_subscribers: alive_subs,
         ready: tokio::sync::Mutex::new(Ready::default()),
         _token: token,
         _version: version,
@@ -350,6 +366,39 @@ pub async fn open(
         frames,
         telemetry,
     })
+}
+
+/// The key chunks of the peers `me` follows: each of `follow` and itself,
+/// or `*`.
+fn followed<'a>(me: &'a str, follow: Option<&'a [PeerId]>) -> impl Iterator<Item = &'a str> + 'a {
+    let chunks: Vec<&str> = match follow {
+        Some(peers) => std::iter::once(me)
+            .chain(peers.iter().map(String::as_str).filter(|p| *p != me))
+            .collect(),
+        None => vec!["*"],
+    };
+    chunks.into_iter()
+}
+
+/// Subscribes `on` to the liveliness tokens on each of `keys`, those up
+/// already included.
+async fn follow_tokens(
+    session: &Session,
+    keys: impl Iterator<Item = String>,
+    on: impl Fn(Sample) + Clone + Send + Sync + 'static,
+) -> Result<Vec<Subscriber<()>>, TransportError> {
+    let mut subs = Vec::new();
+    for key in keys {
+        let sub = session
+            .liveliness()
+            .declare_subscriber(key)
+            .history(true)
+            .callback(on.clone())
+            .await
+            .map_err(|e| TransportError::Open(e.to_string()))?;
+        subs.push(sub);
+    }
+    Ok(subs)
 }
 
 fn up_or_gone(kind: SampleKind) -> &'static str {
@@ -383,18 +432,20 @@ struct ZenohLink {
     session: Session,
     /// Declared once per key and reused: declaring is a network round.
     publishers: tokio::sync::Mutex<HashMap<String, Publisher<'static>>>,
+    /// The publishers of what nobody may be listening to, by key.
+    streams: tokio::sync::Mutex<HashMap<String, Stream>>,
     /// Where frames go once set (see [`Link::route_frames`]).
     handler: Arc<OnceLock<FrameHandler>>,
     alive: Arc<Alive>,
     /// The peers whose liveliness token is up (see [`Link::presence`]).
     presence: Arc<watch::Sender<BTreeSet<PeerId>>>,
     _subscribers: Vec<Subscriber<()>>,
-    _alive_subscriber: Subscriber<()>,
+    _alive_subscribers: Vec<Subscriber<()>>,
     /// This peer's `ready` token once declared, and the subscriber to the
     /// others' once someone waits for them.
     ready: tokio::sync::Mutex<Ready>,
     _token: LivelinessToken,
-    _version: Option<(LivelinessToken, Subscriber<()>)>,
+    _version: Option<(LivelinessToken, Vec<Subscriber<()>>)>,
     /// The latest of this peer's events by slot, for observers that ask
     /// (see [`Link::publish_event`]).
     state: Arc<Mutex<BTreeMap<&'static str, Vec<u8>>>>,
@@ -457,6 +508,57 @@ impl ZenohLink {
     }
 }
 
+/// A publisher of telemetry or events: a drone's telemetry is read by
+/// the few peers whose conditions name it, its events by a monitor if one
+/// watches. Each of 250 drones published its telemetry up to a hundred
+/// times a second to a router that dropped it, most of the fleet's work
+/// once it flew.
+struct Stream {
+    publisher: Publisher<'static>,
+    /// Whether a subscriber matches the key, as zenoh last said.
+    heard: Arc<AtomicBool>,
+    _listener: MatchingListener<()>,
+}
+
+impl ZenohLink {
+    /// Publishes `bytes` on `key` if anyone subscribes to it. A subscriber
+    /// that comes later misses nothing it needs: telemetry is published
+    /// again every 250 ms, and a peer's latest events are kept for
+    /// whoever asks (see [`Link::publish_event`]).
+    async fn put_if_heard(&self, key: String, bytes: Vec<u8>) -> Result<(), TransportError> {
+        let send = |e: zenoh::Error| TransportError::Send(e.to_string());
+        let mut streams = self.streams.lock().await;
+        if !streams.contains_key(&key) {
+            let publisher = self
+                .session
+                .declare_publisher(key.clone())
+                .await
+                .map_err(send)?;
+            let heard = Arc::new(AtomicBool::new(false));
+            let h = heard.clone();
+            let listener = publisher
+                .matching_listener()
+                .callback(move |s: MatchingStatus| h.store(s.matching(), Ordering::Relaxed))
+                .await
+                .map_err(send)?;
+            // Any change after this is the listener's.
+            let now = publisher.matching_status().await.map_err(send)?;
+            heard.store(now.matching(), Ordering::Relaxed);
+            let stream = Stream {
+                publisher,
+                heard,
+                _listener: listener,
+            };
+            streams.insert(key.clone(), stream);
+        }
+        let stream = &streams[&key];
+        if !stream.heard.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        stream.publisher.put(bytes).await.map_err(send)
+    }
+}
+
 #[async_trait]
 impl Link for ZenohLink {
     fn me(&self) -> &str {
@@ -476,7 +578,7 @@ impl Link for ZenohLink {
     }
 
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
-        self.put(
+        self.put_if_heard(
             key(&self.mission, &sample.drone, "telemetry"),
             sample.encode(),
         )
@@ -492,7 +594,8 @@ impl Link for ZenohLink {
             let mut kept = self.state.lock().unwrap_or_else(|p| p.into_inner());
             kept.insert(slot, line.clone());
         }
-        self.put(key(&self.mission, &self.me, "events"), line).await
+        self.put_if_heard(key(&self.mission, &self.me, "events"), line)
+            .await
     }
 
     async fn wait_for_peers(
@@ -605,52 +708,52 @@ async fn announce_version(
     session: &Session,
     mission: &str,
     me: &str,
+    follow: Option<&[PeerId]>,
     alive: Arc<Alive>,
-) -> Result<Option<(LivelinessToken, Subscriber<()>)>, TransportError> {
+) -> Result<Option<(LivelinessToken, Vec<Subscriber<()>>)>, TransportError> {
     let Some((name, version)) = eamos_fleet::identity::split(mission) else {
         return Ok(None);
     };
     let ours = version.to_string();
     let prefix = format!("eamos/{name}/");
     let mission_name = name.to_string();
-    let sub = session
-        .liveliness()
-        .declare_subscriber(format!("eamos/{name}/*/version/*"))
-        .history(true)
-        .callback(move |sample| {
-            let k = sample.key_expr().as_str();
-            let Some((peer, theirs)) = k
-                .strip_prefix(&prefix)
-                .and_then(|r| r.split_once("/version/"))
-            else {
-                return;
-            };
-            if theirs == ours {
-                return;
-            }
-            let mut foreign = alive.foreign.lock().expect("alive lock");
-            match sample.kind() {
-                SampleKind::Put => {
-                    if foreign.insert(peer.to_string(), theirs.to_string()).is_none() {
-                        tracing::error!(
+    let on_version = move |sample: Sample| {
+        let k = sample.key_expr().as_str();
+        let Some((peer, theirs)) = k
+            .strip_prefix(&prefix)
+            .and_then(|r| r.split_once("/version/"))
+        else {
+            return;
+        };
+        if theirs == ours {
+            return;
+        }
+        let mut foreign = alive.foreign.lock().expect("alive lock");
+        match sample.kind() {
+            SampleKind::Put => {
+                if foreign
+                    .insert(peer.to_string(), theirs.to_string())
+                    .is_none()
+                {
+                    tracing::error!(
                             "peer {peer} runs version {theirs} of mission {mission_name}, this peer version {ours}: they refuse each other"
                         );
-                    }
-                }
-                SampleKind::Delete => {
-                    foreign.remove(peer);
                 }
             }
-            alive.changed.notify_waiters();
-        })
-        .await
-        .map_err(|e| TransportError::Open(e.to_string()))?;
+            SampleKind::Delete => {
+                foreign.remove(peer);
+            }
+        }
+        alive.changed.notify_waiters();
+    };
+    let keys = followed(me, follow).map(|who| format!("eamos/{name}/{who}/version/*"));
+    let subs = follow_tokens(session, keys, on_version).await?;
     let token = session
         .liveliness()
         .declare_token(format!("eamos/{name}/{me}/version/{version}"))
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
-    Ok(Some((token, sub)))
+    Ok(Some((token, subs)))
 }
 
 impl Alive {
@@ -975,6 +1078,47 @@ mod tests {
             }
         };
         assert_eq!(got, sample);
+    }
+
+    /// A drone follows whether its neighbours are up, and hears nothing
+    /// of the rest of the fleet, however many they are.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_peer_that_follows_its_neighbours_sees_them_come_and_go_and_no_one_else() {
+        let ports = [free_port(), free_port(), free_port()];
+        let mission = "ZenohTest-follow";
+        let mesh = |k: usize| ZenohOptions {
+            mode: Default::default(),
+            listen: vec![tcp(ports[k])],
+            connect: (0..3).filter(|j| *j != k).map(|j| tcp(ports[j])).collect(),
+            scouting: false,
+            tls: None,
+        };
+        let d1 = open(mission, "D1", &[], &mesh(0)).await.unwrap();
+        let _d2 = open(mission, "D2", &[], &mesh(1)).await.unwrap();
+        let d3 = open_following(mission, "D3", &[], Some(&["D1".into()]), &mesh(2))
+            .await
+            .unwrap();
+        let all = ["D2".to_string(), "D3".to_string()];
+        d1.link
+            .wait_for_peers(&all, Duration::from_secs(20))
+            .await
+            .expect("D1 follows everyone");
+        d3.link
+            .wait_for_peers(&["D1".into()], Duration::from_secs(20))
+            .await
+            .unwrap();
+        let mut presence = d3.link.presence().unwrap();
+        // D2 has been up long enough for D1 to see it; D3 never does.
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let up: Vec<PeerId> = presence.borrow_and_update().iter().cloned().collect();
+        assert_eq!(up, ["D1", "D3"]);
+        drop(d1);
+        let gone = tokio::time::timeout(
+            Duration::from_secs(20),
+            presence.wait_for(|up| !up.contains("D1")),
+        )
+        .await;
+        assert!(gone.is_ok(), "D3 never saw D1 go");
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
