@@ -15,10 +15,11 @@
 //! [`waits_for_handover`]) or telemetry (a condition with all its tokens
 //! that has no answer because it reads the lost peer and no drone up but
 //! this one: the peer's last telemetry, frozen, is no answer). A drone that
-//! has lost every other peer, the ground station included, is stuck on all
-//! of them as soon as it is idle: nobody can tell it the mission ended or
-//! was aborted, so it decides alone. Drones that do not wait on the lost
-//! peer carry on untouched.
+//! has lost every one of its [`neighbours`], the ground station included,
+//! is stuck on all of them as soon as it is idle: nobody can tell it the
+//! mission ended or was aborted, so it decides alone (a drone follows
+//! whether its neighbours are up, not the whole fleet). Drones that do not
+//! wait on the lost peer carry on untouched.
 //!
 //! Once the grace period has passed, a stuck drone follows the policy its
 //! fleet file declares ([`OnLost`]) and tells the ground station, which
