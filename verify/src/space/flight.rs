@@ -60,6 +60,7 @@ fn states(
         for (t, _) in walker
             .walk(
                 walker.initial(),
+                Some(d),
                 &stop,
                 false,
                 &|_| false,
@@ -89,7 +90,16 @@ fn states(
             }
             if let std::collections::hash_map::Entry::Vacant(e) = next.entry((i, cancel)) {
                 let list = walker
-                    .walk_after(via, &[], cancel, &stop, false, &|_| false, &mut budget)?
+                    .walk_after(
+                        via,
+                        &[],
+                        cancel,
+                        Some(d),
+                        &stop,
+                        false,
+                        &|_| false,
+                        &mut budget,
+                    )?
                     .stops
                     .into_iter()
                     .map(|(t, _)| start_of[&t])

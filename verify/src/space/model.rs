@@ -198,7 +198,15 @@ pub(crate) fn positions(
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
         let home = Shape::point(Vec3::ZERO);
         let blocked = |t: NodeId| decided_false(net, profiles, t, d, home);
-        let reach = walker.walk(walker.initial(), &stop, true, &blocked, None, &mut budget)?;
+        let reach = walker.walk(
+            walker.initial(),
+            Some(d),
+            &stop,
+            true,
+            &blocked,
+            None,
+            &mut budget,
+        )?;
         for (t, c) in reach.stops {
             work.push_back((start_of[&t], c, Shape::point(Vec3::ZERO), Last::Home));
         }
@@ -247,8 +255,16 @@ pub(crate) fn positions(
             let key = (m, c.clone(), cancel, at.key());
             if !next.contains_key(&key) {
                 let blocked = |t: NodeId| decided_false(net, profiles, t, d, at);
-                let reach =
-                    walker.walk_after(via, &c, cancel, &stop, true, &blocked, &mut budget)?;
+                let reach = walker.walk_after(
+                    via,
+                    &c,
+                    cancel,
+                    Some(d),
+                    &stop,
+                    true,
+                    &blocked,
+                    &mut budget,
+                )?;
                 let list = reach
                     .stops
                     .into_iter()
@@ -294,7 +310,15 @@ fn preds(
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
         for (t, c) in walker
-            .walk(walker.initial(), &stop, true, &|_| false, None, budget)?
+            .walk(
+                walker.initial(),
+                Some(d),
+                &stop,
+                true,
+                &|_| false,
+                None,
+                budget,
+            )?
             .stops
         {
             preds[start_of[&t]].insert(Last::Home);
@@ -315,7 +339,8 @@ fn preds(
             if via.is_empty() {
                 continue;
             }
-            let reach = walker.walk_after(via, &c, cancel, &stop, true, &|_| false, budget)?;
+            let reach =
+                walker.walk_after(via, &c, cancel, Some(d), &stop, true, &|_| false, budget)?;
             for (t2, c2) in reach.stops {
                 preds[start_of[&t2]].insert(last);
                 work.push((start_of[&t2], c2));

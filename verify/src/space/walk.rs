@@ -13,7 +13,10 @@
 //! other way: a `PAR_` block's join, when the walk itself went through the
 //! block's fork, waits until the walk has reached every branch's end (a
 //! branch it did not reach ends with an action of the drone, which comes
-//! first).
+//! first). A walk for one drone does not go down a branch that holds none
+//! of that drone's actions and leads only to its join: it takes the branch
+//! as come to its end. Going down every drone's branch made each walk cross
+//! the whole mission, the spatial check's work the square of the fleet's.
 //!
 //! Loop counters are followed exactly where a `RepeatFor` guard reads them
 //! (so a body flown three times is flown three times, not for ever); a
@@ -30,6 +33,29 @@ pub(crate) struct Walker<'n> {
     cap: u32,
     /// The fork that opened each join's block.
     fork_of: HashMap<NodeId, NodeId>,
+    /// Each branch of each block, by its fork and the place it starts at.
+    branches: HashMap<(NodeId, NodeId), Branch>,
+}
+
+/// One branch of a `PAR_` block, from its fork to its join.
+#[derive(Debug)]
+struct Branch {
+    /// Drones that have an action in it (one bit each).
+    drones: Vec<u64>,
+    /// The block's join, and where the branch meets it.
+    join: NodeId,
+    ends: Vec<NodeId>,
+    /// It leads nowhere but to its join (or to the mission's end): no
+    /// other block's join waits on it.
+    closed: bool,
+}
+
+impl Branch {
+    fn has(&self, drone: u16) -> bool {
+        self.drones
+            .get(drone as usize / 64)
+            .is_some_and(|w| w & (1 << (drone % 64)) != 0)
+    }
 }
 
 /// Where a walk stopped, and the places it passed.
@@ -68,7 +94,72 @@ impl<'n> Walker<'n> {
             .filter(|(_, t)| t.kind == TransitionKind::Join)
             .filter_map(|(n, t)| Some((n, *forks.get(&(t.span.start, t.span.end))?)))
             .collect();
-        Walker { net, cap, fork_of }
+        let mut walker = Walker {
+            net,
+            cap,
+            fork_of,
+            branches: HashMap::new(),
+        };
+        walker.branches = walker.branches();
+        walker
+    }
+
+    /// Every branch of every block, followed structurally from its fork
+    /// to its join.
+    fn branches(&self) -> HashMap<(NodeId, NodeId), Branch> {
+        let mut out = HashMap::new();
+        for (&join, &fork) in &self.fork_of {
+            for (start, _) in self.net.postset(fork).filter(|(q, _)| self.followed(*q)) {
+                out.insert((fork, start), self.branch(fork, join, start));
+            }
+        }
+        out
+    }
+
+    fn branch(&self, fork: NodeId, join: NodeId, start: NodeId) -> Branch {
+        let mut branch = Branch {
+            drones: Vec::new(),
+            join,
+            ends: Vec::new(),
+            closed: true,
+        };
+        let mut seen: HashSet<NodeId> = HashSet::from([start]);
+        let mut forks: HashSet<NodeId> = HashSet::from([fork]);
+        let mut joins: Vec<NodeId> = Vec::new();
+        let mut stack = vec![start];
+        while let Some(p) = stack.pop() {
+            if let Some(PlaceKind::Running(a)) = self.net.place(p).map(|p| &p.kind) {
+                let d = a.drone.0 as usize;
+                if branch.drones.len() <= d / 64 {
+                    branch.drones.resize(d / 64 + 1, 0);
+                }
+                branch.drones[d / 64] |= 1 << (d % 64);
+            }
+            for (t, _) in self.net.consumers(p) {
+                if t == join {
+                    branch.ends.push(p);
+                    continue;
+                }
+                match self.net.transition(t).map(|t| &t.kind) {
+                    Some(TransitionKind::Fork) => {
+                        forks.insert(t);
+                    }
+                    Some(TransitionKind::Join) => joins.push(t),
+                    _ => {}
+                }
+                for (q, _) in self.net.postset(t).filter(|(q, _)| self.followed(*q)) {
+                    if seen.insert(q) {
+                        stack.push(q);
+                    }
+                }
+            }
+        }
+        // A join of another block the branch did not open: the branch
+        // leaves its block some other way than by its join.
+        branch.closed = joins
+            .iter()
+            .all(|j| self.fork_of.get(j).is_some_and(|f| forks.contains(f)));
+        branch
     }
 
     /// Loop counters below this are exact; at it, any count from it up.
@@ -102,9 +193,11 @@ impl<'n> Walker<'n> {
     /// the drone is) is not passed. `cut`: the seeds follow a cancel in
     /// this `Do` region, whose body is then skipped (its steps that need
     /// the region live cannot fire) until the region starts again.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn walk(
         &self,
         seeds: Vec<(NodeId, Colour)>,
+        drone: Option<u16>,
         stop: &dyn Fn(NodeId) -> bool,
         colours: bool,
         blocked: &dyn Fn(NodeId) -> bool,
@@ -158,11 +251,17 @@ impl<'n> Walker<'n> {
                         _ => {}
                     }
                     let cut = cut.filter(|&r| !self.starts_region(t, r));
-                    stack.extend(
-                        self.after(t, &c, colours)
-                            .into_iter()
-                            .map(|(q, c)| (q, c, cut)),
-                    );
+                    for (q, c) in self.after(t, &c, colours) {
+                        match self.skipped(t, q, drone) {
+                            // As if the walk had come down the branch to
+                            // the join with the token it set out with.
+                            Some(b) => {
+                                visited.extend(b.ends.iter().copied());
+                                waiting.push((b.join, c, cut));
+                            }
+                            None => stack.push((q, c, cut)),
+                        }
+                    }
                 }
             }
             // Joins whose block the walk opened go on once every branch
@@ -188,6 +287,18 @@ impl<'n> Walker<'n> {
         Ok(reach)
     }
 
+    /// The branch of block `fork` starting at `start`, if a walk for
+    /// `drone` need not go down it: no action of the drone's is in it, so
+    /// no stop is, and it leads only to its join, which the walk may then
+    /// pass as if the branch had come to its end. The walk of a drone that
+    /// crossed a block went down every other drone's branch only to be let
+    /// through the join: each walk through the whole mission, the spatial
+    /// check's work the square of the fleet's size.
+    fn skipped(&self, fork: NodeId, start: NodeId, drone: Option<u16>) -> Option<&Branch> {
+        let b = self.branches.get(&(fork, start))?;
+        (b.closed && !b.has(drone?)).then_some(b)
+    }
+
     /// Walks on from where the transitions `via` (the ends of one action,
     /// or its cancels) put the token of colour `c`; after a cancel, the
     /// rest of its `Do` body is skipped.
@@ -197,6 +308,7 @@ impl<'n> Walker<'n> {
         via: &[NodeId],
         c: &[u32],
         cancel: bool,
+        drone: Option<u16>,
         stop: &dyn Fn(NodeId) -> bool,
         colours: bool,
         blocked: &dyn Fn(NodeId) -> bool,
@@ -206,7 +318,8 @@ impl<'n> Walker<'n> {
         for &e in via {
             let cut = if cancel { self.region_of(e) } else { None };
             let seeds = self.after(e, c, colours);
-            for stop in self.walk(seeds, stop, colours, blocked, cut, budget)?.stops {
+            let found = self.walk(seeds, drone, stop, colours, blocked, cut, budget)?;
+            for stop in found.stops {
                 if !reach.stops.contains(&stop) {
                     reach.stops.push(stop);
                 }
@@ -265,5 +378,75 @@ impl<'n> Walker<'n> {
             *v = (*v).min(self.cap);
         }
         c
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn net(text: &str) -> Net {
+        let profiles = eamos_profile::builtin();
+        let source = eamos_lang::SourceFile::new("m.go", text);
+        let compiled = eamos_lang::compile(&source, &profiles).expect("compiles");
+        eamos_petri::compile(&compiled.mission, &profiles)
+    }
+
+    /// The starts of drone `d`'s actions (their `Running` place's producers).
+    fn starts(net: &Net, d: u16) -> HashSet<NodeId> {
+        net.places()
+            .filter(|(_, p)| matches!(&p.kind, PlaceKind::Running(a) if a.drone.0 == d))
+            .flat_map(|(r, _)| net.producers(r).collect::<Vec<_>>())
+            .collect()
+    }
+
+    /// B takes off, C and E fly a block of their own, then B flies on: B's
+    /// walk from its takeoff passes the block's join without going down
+    /// C's long branch, and finds the same next actions.
+    #[test]
+    fn a_walk_passes_a_block_without_going_down_the_other_drones_branches() {
+        let mut text = String::from(
+            "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_Others()\n\tB.FlyTo(3, 0, 2)\n\tB.Land()\n}\n\nfunc PAR_Others() {\n\tSEQ_C()\n\tE.Arm()\n}\n\nfunc SEQ_C() {\n\tC.Arm()\n\tC.Takeoff(2)\n",
+        );
+        for k in 0..40 {
+            text += &format!("\tC.FlyTo({k}, 1, 2)\n");
+        }
+        text += "\tC.Land()\n}\n";
+        let net = net(&text);
+        let walker = Walker::new(&net);
+        let b = starts(&net, 0);
+        let takeoff = *b
+            .iter()
+            .find(|&&t| {
+                net.transition(t)
+                    .is_some_and(|t| t.label.contains("Takeoff"))
+            })
+            .expect("B's takeoff");
+        let walk = |drone: Option<u16>| {
+            let mut budget = usize::MAX;
+            let stop = |t: NodeId| b.contains(&t) && t != takeoff;
+            let seeds = walker.after(takeoff, &[], true);
+            let reach = walker
+                .walk(seeds, drone, &stop, true, &|_| false, None, &mut budget)
+                .unwrap();
+            let mut labels: Vec<String> = reach
+                .stops
+                .iter()
+                .map(|(t, _)| net.transition(*t).unwrap().label.to_string())
+                .collect();
+            labels.sort();
+            (labels, usize::MAX - budget)
+        };
+        let (every_branch, long) = walk(None);
+        let (own_branches, short) = walk(Some(0));
+        assert_eq!(own_branches, every_branch);
+        assert!(
+            own_branches.iter().any(|l| l.contains("FlyTo")),
+            "B's walk from its takeoff passes the first block's join: {own_branches:?}"
+        );
+        assert!(
+            short * 4 < long,
+            "B's walk took {short} steps, going down C's branch {long}"
+        );
     }
 }
