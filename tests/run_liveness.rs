@@ -11,6 +11,9 @@ use std::time::{Duration, Instant};
 use assert_cmd::cargo::CommandCargoExt;
 use serde_json::Value;
 
+#[path = "common/processes.rs"]
+mod processes;
+
 const DRONES: [&str; 3] = ["Free", "Lead", "Follow"];
 
 fn example(name: &str) -> PathBuf {
@@ -236,19 +239,7 @@ fn an_agent_killed_mid_mission_leaves_the_others_untouched_and_the_drone_waiting
 fn eamos_abort_during_a_run_lands_every_drone_exactly_once() {
     let mut fleet = Fleet::start("", "10");
     fleet.wait_for_line("Lead", "started FlyByX(100)", Duration::from_secs(120));
-    let out = Command::cargo_bin("eamos")
-        .unwrap()
-        .arg("abort")
-        .arg(example("dropout.go"))
-        .args(["--timeout", "20"])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = processes::abort(&example("dropout.go"), 20);
     assert!(
         stdout.contains("abort sent to 4 peers (4 up), 0 not acknowledged"),
         "{stdout}"

@@ -283,18 +283,7 @@ fn an_abort_reaches_each_of_a_hundred_drones_once() {
     let dir = tempfile::tempdir().unwrap();
     let mut flight = hovering(dir.path());
     // Joins through the ground station, as a client, like every drone.
-    let out = eamos()
-        .arg("abort")
-        .arg(dir.path().join("mission.go"))
-        .args(["--timeout", "30"])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let stdout = processes::abort(&dir.path().join("mission.go"), 30);
     let peers = DRONES + 1;
     assert!(
         stdout.contains(&format!(

@@ -708,7 +708,7 @@ pub async fn run_peer(
         telemetry: e.telemetry,
         events,
     };
-    let router_for = (peer == GCS && fleet.hub(&all)).then(|| slice.drones.clone());
+    let routes_for_drones = peer == GCS && fleet.hub(&all);
     let mode = fleet.zenoh_options(&slice.mission_id, &all, peer).mode;
     let mut exec_options = executor_options(all, options);
     exec_options.pass_on_aborts = mode != Mode::Client;
@@ -718,8 +718,14 @@ pub async fn run_peer(
     // Peers whose acknowledgement from us was lost retransmit: stay a
     // moment to acknowledge them again.
     tokio::time::sleep(options.linger).await;
-    if let Some(drones) = router_for {
-        route_until_gone(link.as_ref(), &drones, &options.stop, ROUTING_AFTER_END).await;
+    if routes_for_drones {
+        route_until_gone(
+            link.as_ref(),
+            &slice.drones,
+            &options.stop,
+            ROUTING_AFTER_END,
+        )
+        .await;
     }
     paths_stop.cancel();
     drop(b);
@@ -741,10 +747,11 @@ const ROUTING_AFTER_END: Duration = Duration::from_secs(120);
 
 /// The ground station of a hub fleet is the drones' router (see
 /// [`Fleet::hub`]): it stays until none of `drones` is up any more (a
-/// monitor watching does not hold it), `limit` at most, or until stopped. When it left as soon as its own run ended, an
-/// abort among 100 drones cut off every drone still passing the abort on
-/// or landing: each waited out its flush in silence, and `eamos abort`
-/// heard from only some of them.
+/// monitor watching does not hold it), `limit` at most, or until stopped.
+/// When it left as soon as its own run ended, an abort among 100 drones
+/// cut off every drone still passing the abort on or landing: each waited
+/// out its flush in silence, and `eamos abort` heard from only some of
+/// them.
 async fn route_until_gone(
     link: &dyn Link,
     drones: &[String],

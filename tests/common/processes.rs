@@ -28,3 +28,21 @@ pub fn free_port() -> u16 {
         .unwrap()
         .port()
 }
+
+/// Runs `eamos abort` on `mission`, waiting `timeout` seconds at most for
+/// the acknowledgements; its report (standard output), once it succeeded.
+pub fn abort(mission: &std::path::Path, timeout: u64) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_eamos"))
+        .arg("abort")
+        .arg(mission)
+        .args(["--timeout", &timeout.to_string()])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}

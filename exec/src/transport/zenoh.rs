@@ -315,7 +315,9 @@ pub async fn open_following(
         presence_tx.send_replace(peers.iter().cloned().collect());
         seen.changed.notify_waiters();
     };
-    let keys = followed(me, follow).map(|who| format!("eamos/{mission}/{who}/alive"));
+    let keys = followed(me, follow)
+        .into_iter()
+        .map(|who| format!("eamos/{mission}/{who}/alive"));
     let alive_subs = follow_tokens(&session, keys, on_alive).await?;
     let token = session
         .liveliness()
@@ -349,7 +351,6 @@ pub async fn open_following(
         mission: mission.to_string(),
         session,
         publishers: tokio::sync::Mutex::new(HashMap::new()),
-        streams: tokio::sync::Mutex::new(HashMap::new()),
         handler,
         alive,
         _subscribers: subscribers,
@@ -370,14 +371,13 @@ pub async fn open_following(
 
 /// The key chunks of the peers `me` follows: each of `follow` and itself,
 /// or `*`.
-fn followed<'a>(me: &'a str, follow: Option<&'a [PeerId]>) -> impl Iterator<Item = &'a str> + 'a {
-    let chunks: Vec<&str> = match follow {
+fn followed<'a>(me: &'a str, follow: Option<&'a [PeerId]>) -> Vec<&'a str> {
+    match follow {
         Some(peers) => std::iter::once(me)
             .chain(peers.iter().map(String::as_str).filter(|p| *p != me))
             .collect(),
         None => vec!["*"],
-    };
-    chunks.into_iter()
+    }
 }
 
 /// Subscribes `on` to the liveliness tokens on each of `keys`, those up
@@ -430,10 +430,8 @@ struct ZenohLink {
     me: PeerId,
     mission: String,
     session: Session,
-    /// Declared once per key and reused: declaring is a network round.
-    publishers: tokio::sync::Mutex<HashMap<String, Publisher<'static>>>,
-    /// The publishers of what nobody may be listening to, by key.
-    streams: tokio::sync::Mutex<HashMap<String, Stream>>,
+    /// Its publishers, by key.
+    publishers: tokio::sync::Mutex<HashMap<String, Stream>>,
     /// Where frames go once set (see [`Link::route_frames`]).
     handler: Arc<OnceLock<FrameHandler>>,
     alive: Arc<Alive>,
@@ -490,70 +488,66 @@ impl ZenohLink {
         ready.subscriber = Some(sub);
         Ok(())
     }
-
-    async fn put(&self, key: String, bytes: Vec<u8>) -> Result<(), TransportError> {
-        let mut publishers = self.publishers.lock().await;
-        if !publishers.contains_key(&key) {
-            let p = self
-                .session
-                .declare_publisher(key.clone())
-                .await
-                .map_err(|e| TransportError::Send(e.to_string()))?;
-            publishers.insert(key.clone(), p);
-        }
-        publishers[&key]
-            .put(bytes)
-            .await
-            .map_err(|e| TransportError::Send(e.to_string()))
-    }
 }
 
-/// A publisher of telemetry or events: a drone's telemetry is read by
-/// the few peers whose conditions name it, its events by a monitor if one
-/// watches. Each of 250 drones published its telemetry up to a hundred
-/// times a second to a router that dropped it, most of the fleet's work
-/// once it flew.
+/// A publisher, declared once per key and reused (declaring is a
+/// network round).
 struct Stream {
     publisher: Publisher<'static>,
-    /// Whether a subscriber matches the key, as zenoh last said.
-    heard: Arc<AtomicBool>,
-    _listener: MatchingListener<()>,
+    /// For what nobody may be listening to (telemetry, events): whether a
+    /// subscriber matches the key, as zenoh last said.
+    heard: Option<(Arc<AtomicBool>, MatchingListener<()>)>,
+}
+
+/// Who a publication is for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Audience {
+    /// A peer that must get it (a token, an acknowledgement): always sent.
+    Addressed,
+    /// Whoever subscribes: a drone's telemetry is read by the few peers
+    /// whose conditions name it, its events by a monitor if one watches.
+    /// Sent only while a subscriber matches; one that comes later misses
+    /// nothing it needs (telemetry is published again every 250 ms, and a
+    /// peer's latest events are kept for whoever asks, see
+    /// [`Link::publish_event`]). Each of 250 drones published its telemetry
+    /// up to a hundred times a second to a router that dropped it, most of
+    /// the fleet's work once it flew.
+    IfHeard,
 }
 
 impl ZenohLink {
-    /// Publishes `bytes` on `key` if anyone subscribes to it. A subscriber
-    /// that comes later misses nothing it needs: telemetry is published
-    /// again every 250 ms, and a peer's latest events are kept for
-    /// whoever asks (see [`Link::publish_event`]).
-    async fn put_if_heard(&self, key: String, bytes: Vec<u8>) -> Result<(), TransportError> {
+    async fn put(&self, key: String, bytes: Vec<u8>, to: Audience) -> Result<(), TransportError> {
         let send = |e: zenoh::Error| TransportError::Send(e.to_string());
-        let mut streams = self.streams.lock().await;
-        if !streams.contains_key(&key) {
+        let mut publishers = self.publishers.lock().await;
+        if !publishers.contains_key(&key) {
             let publisher = self
                 .session
                 .declare_publisher(key.clone())
                 .await
                 .map_err(send)?;
-            let heard = Arc::new(AtomicBool::new(false));
-            let h = heard.clone();
-            let listener = publisher
-                .matching_listener()
-                .callback(move |s: MatchingStatus| h.store(s.matching(), Ordering::Relaxed))
-                .await
-                .map_err(send)?;
-            // Any change after this is the listener's.
-            let now = publisher.matching_status().await.map_err(send)?;
-            heard.store(now.matching(), Ordering::Relaxed);
-            let stream = Stream {
-                publisher,
-                heard,
-                _listener: listener,
+            let heard = match to {
+                Audience::Addressed => None,
+                Audience::IfHeard => {
+                    let heard = Arc::new(AtomicBool::new(false));
+                    let h = heard.clone();
+                    let listener = publisher
+                        .matching_listener()
+                        .callback(move |s: MatchingStatus| h.store(s.matching(), Ordering::Relaxed))
+                        .await
+                        .map_err(send)?;
+                    // Any change after this is the listener's.
+                    let now = publisher.matching_status().await.map_err(send)?;
+                    heard.store(now.matching(), Ordering::Relaxed);
+                    Some((heard, listener))
+                }
             };
-            streams.insert(key.clone(), stream);
+            publishers.insert(key.clone(), Stream { publisher, heard });
         }
-        let stream = &streams[&key];
-        if !stream.heard.load(Ordering::Relaxed) {
-            return Ok(());
+        let stream = &publishers[&key];
+        if let Some((heard, _)) = &stream.heard {
+            if !heard.load(Ordering::Relaxed) {
+                return Ok(());
+            }
         }
         stream.publisher.put(bytes).await.map_err(send)
     }
@@ -570,7 +564,12 @@ impl Link for ZenohLink {
             Frame::Token(_) => "bridge",
             Frame::Ack(_) | Frame::Acks(_) => "ack",
         };
-        self.put(key(&self.mission, to, what), frame.encode()).await
+        self.put(
+            key(&self.mission, to, what),
+            frame.encode(),
+            Audience::Addressed,
+        )
+        .await
     }
 
     fn route_frames(&self, handler: FrameHandler) -> bool {
@@ -578,9 +577,10 @@ impl Link for ZenohLink {
     }
 
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
-        self.put_if_heard(
+        self.put(
             key(&self.mission, &sample.drone, "telemetry"),
             sample.encode(),
+            Audience::IfHeard,
         )
         .await
     }
@@ -594,8 +594,12 @@ impl Link for ZenohLink {
             let mut kept = self.state.lock().unwrap_or_else(|p| p.into_inner());
             kept.insert(slot, line.clone());
         }
-        self.put_if_heard(key(&self.mission, &self.me, "events"), line)
-            .await
+        self.put(
+            key(&self.mission, &self.me, "events"),
+            line,
+            Audience::IfHeard,
+        )
+        .await
     }
 
     async fn wait_for_peers(
@@ -746,7 +750,9 @@ async fn announce_version(
         }
         alive.changed.notify_waiters();
     };
-    let keys = followed(me, follow).map(|who| format!("eamos/{name}/{who}/version/*"));
+    let keys = followed(me, follow)
+        .into_iter()
+        .map(|who| format!("eamos/{name}/{who}/version/*"));
     let subs = follow_tokens(session, keys, on_version).await?;
     let token = session
         .liveliness()

@@ -23,7 +23,7 @@
 //! counter that no guard reads stops counting past the largest count any
 //! guard tests, which keeps every walk finite.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeSet, HashMap, HashSet};
 
 use eamos_petri::net::{Colour, Net, NodeId, PlaceKind, TransitionKind};
 
@@ -40,22 +40,14 @@ pub(crate) struct Walker<'n> {
 /// One branch of a `PAR_` block, from its fork to its join.
 #[derive(Debug)]
 struct Branch {
-    /// Drones that have an action in it (one bit each).
-    drones: Vec<u64>,
+    /// Drones that have an action in it.
+    drones: BTreeSet<u16>,
     /// The block's join, and where the branch meets it.
     join: NodeId,
     ends: Vec<NodeId>,
     /// It leads nowhere but to its join (or to the mission's end): no
     /// other block's join waits on it.
     closed: bool,
-}
-
-impl Branch {
-    fn has(&self, drone: u16) -> bool {
-        self.drones
-            .get(drone as usize / 64)
-            .is_some_and(|w| w & (1 << (drone % 64)) != 0)
-    }
 }
 
 /// Where a walk stopped, and the places it passed.
@@ -118,7 +110,7 @@ impl<'n> Walker<'n> {
 
     fn branch(&self, fork: NodeId, join: NodeId, start: NodeId) -> Branch {
         let mut branch = Branch {
-            drones: Vec::new(),
+            drones: BTreeSet::new(),
             join,
             ends: Vec::new(),
             closed: true,
@@ -129,11 +121,7 @@ impl<'n> Walker<'n> {
         let mut stack = vec![start];
         while let Some(p) = stack.pop() {
             if let Some(PlaceKind::Running(a)) = self.net.place(p).map(|p| &p.kind) {
-                let d = a.drone.0 as usize;
-                if branch.drones.len() <= d / 64 {
-                    branch.drones.resize(d / 64 + 1, 0);
-                }
-                branch.drones[d / 64] |= 1 << (d % 64);
+                branch.drones.insert(a.drone.0);
             }
             for (t, _) in self.net.consumers(p) {
                 if t == join {
@@ -296,7 +284,7 @@ impl<'n> Walker<'n> {
     /// check's work the square of the fleet's size.
     fn skipped(&self, fork: NodeId, start: NodeId, drone: Option<u16>) -> Option<&Branch> {
         let b = self.branches.get(&(fork, start))?;
-        (b.closed && !b.has(drone?)).then_some(b)
+        (b.closed && !b.drones.contains(&drone?)).then_some(b)
     }
 
     /// Walks on from where the transitions `via` (the ends of one action,
