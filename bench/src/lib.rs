@@ -42,9 +42,6 @@ pub struct Options {
     pub no_run: bool,
     /// How many times each process is measured (the median is reported).
     pub repeat: usize,
-    /// Also check the corpus nets that take minutes (the 16- and 32-drone
-    /// 20,000-node missions).
-    pub full_corpus: bool,
     /// The fleets flown one process per drone, by their numbers of drones
     /// (once each: a fleet is a hundred processes, not one).
     pub fleets: Vec<usize>,
@@ -110,12 +107,8 @@ pub fn report(options: &Options) -> Result<String, String> {
         .map_err(|e| format!("cannot create {}: {e}", corpus_dir.display()))?;
     let mut corpus = Vec::new();
     for entry in corpus::prepare(&corpus_dir)? {
-        let checked = if entry.full_only && !options.full_corpus {
-            None
-        } else {
-            eprintln!("  {}", entry.generator);
-            Some(corpus::check(&exe, &entry)?)
-        };
+        eprintln!("  {}", entry.generator);
+        let checked = corpus::check(&exe, &entry)?;
         corpus.push((entry, checked));
     }
     eprintln!("timing the language server's diagnostics after an edit...");

@@ -111,8 +111,8 @@ pub struct Measured<'a> {
     pub check_without_choices: Process,
     /// `eamos lsp` on the stress mission.
     pub lsp: crate::lsp::Latency,
-    /// The checker's corpus; `None` where it was not run.
-    pub corpus: Vec<(crate::corpus::Entry, Option<crate::corpus::Checked>)>,
+    /// The checker's corpus.
+    pub corpus: Vec<(crate::corpus::Entry, crate::corpus::Checked)>,
     /// Fleets flown one process per drone.
     pub fleets: Vec<crate::fleet::FleetRun>,
     /// The live monitor under load: `None` not asked, `Some(None)` no
@@ -545,35 +545,30 @@ pub fn table(m: &Measured) -> String {
         ),
     );
 
-    for (entry, checked) in &m.corpus {
+    for (entry, c) in &m.corpus {
         let asked = if entry.deadlock_only {
             "deadlock only"
         } else {
             "every property but the spatial ones"
         };
         let what = format!("`eamos check`, corpus: `{}`, {asked}", entry.generator);
-        let figure = match checked {
-            None => "not run (`--full-corpus` runs it)".to_string(),
-            Some(c) => format!(
-                "{}: {} ({} states, peak memory {})",
-                c.verdict,
-                ms(c.wall),
-                c.states,
-                mem(c.peak_kib)
-            ),
-        };
+        let figure = format!(
+            "{}: {} ({} states, peak memory {})",
+            c.verdict,
+            ms(c.wall),
+            c.states,
+            mem(c.peak_kib)
+        );
         let mut r = row(what, figure);
         if let Some(goal_s) = entry.goal_s {
             r = r.goal(
                 format!("decided in < {goal_s} s"),
-                checked
-                    .as_ref()
-                    .map(|c| c.decided && c.wall.as_secs_f64() < goal_s),
+                Some(c.decided && c.wall.as_secs_f64() < goal_s),
             );
         } else {
             r = r.goal(
                 format!("decided within {} MB", crate::corpus::MAX_MEMORY_MB),
-                checked.as_ref().map(|c| c.decided),
+                Some(c.decided),
             );
         }
         rows.push(r);

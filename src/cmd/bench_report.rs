@@ -18,10 +18,6 @@ pub struct Args {
     /// How many times each process is measured (the median is reported).
     #[arg(long, value_name = "N", default_value_t = 5)]
     pub repeat: usize,
-    /// Also check the corpus nets that take minutes: the 16- and 32-drone
-    /// 20,000-node missions.
-    #[arg(long)]
-    pub full_corpus: bool,
     /// Fly fleets of these sizes, one process per drone plus the ground
     /// station, through a zenoh router: from the launch to the mission's
     /// start, to its end, and each process's peak memory. The default
@@ -65,7 +61,6 @@ pub fn run(args: Args) -> ExitCode {
         dir: args.dir,
         no_run: args.no_run,
         repeat: args.repeat,
-        full_corpus: args.full_corpus,
         fleets: args.fleets,
         monitor: (args.monitor_drones > 0).then(|| {
             (

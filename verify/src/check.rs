@@ -54,9 +54,11 @@ pub struct Options {
     pub space: Option<crate::Space>,
     /// What to decide: everything, or only whether a deadlock is reachable.
     pub goal: Goal,
-    /// Structural reductions of the net before a search for a deadlock
-    /// alone ([`Goal::Deadlock`], not the shortest): on by default; off to
-    /// search the net as it is, for comparison.
+    /// Structural reductions, on by default; off to search the net as it
+    /// is, for comparison: `RepeatFor` loops that nothing outside them can
+    /// count are explored without their counters (`crate::fold`, every
+    /// goal), and the net is reduced before a search for a deadlock alone
+    /// ([`Goal::Deadlock`], not the shortest).
     pub structural: bool,
 }
 
@@ -133,6 +135,8 @@ pub(crate) struct Subject {
     pub limits: Vec<Limit>,
     /// The spatial properties' part of the mission (mission input).
     pub space: Option<space::Prepared>,
+    /// How many `RepeatFor` loops are folded ([`crate::fold`]).
+    pub folded: usize,
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
@@ -159,6 +163,7 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         waits,
         limits,
         space,
+        folded: _,
     } = subject;
     if !limits.is_empty() {
         let reason = format!("not explored, see `eamos::{}`", limits[0].code);

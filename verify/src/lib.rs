@@ -25,6 +25,7 @@
 pub mod check;
 pub mod conditions;
 mod explore;
+mod fold;
 mod invariants;
 mod mission;
 mod names;
@@ -64,10 +65,20 @@ pub fn check_net(
             .clone()
             .unwrap_or_else(|| Space::default_for(net.drones.len()))
     });
-    check::check(
-        mission::subject(net, profiles, source, space.as_ref()),
-        options,
-    )
+    let subject = |fold| mission::subject(net, profiles, source, space.as_ref(), fold);
+    let folded = subject(options.structural);
+    let loops = folded.folded;
+    let mut report = check::check(folded, options);
+    if loops == 0 {
+        return report;
+    }
+    if fold::proves(&report) {
+        fold::note(&mut report, loops);
+        return report;
+    }
+    // Something to show, or undecided: the counted net answers, and its
+    // counterexamples replay as they are.
+    check::check(subject(false), options)
 }
 
 /// Checks a plain P/T net read from PNML: deadlock, termination (when a

@@ -5,8 +5,12 @@
 //! holds however the sensors behave and however long actions take):
 //! * a transition guarded by a condition may fire whenever its inputs are
 //!   marked, whatever the sensors say;
-//! * colours are dropped, except the iteration counters of `RepeatFor`
-//!   loops, which the colour guards test: each such loop gets counter places
+//! * colours are dropped, and so are the iteration counters of the
+//!   `RepeatFor` loops whose bodies nothing outside them can observe
+//!   ([`crate::fold`]: their rounds and exits become a free choice, and a
+//!   check that finds anything is done again with every loop counted);
+//! * the other `RepeatFor` loops keep their counters, which the colour
+//!   guards test: each such loop gets counter places
 //!   `c0..cn` (one marked), its entry resets the counter, its loop-back moves
 //!   it up and its two guarded branches read it, so the checker counts
 //!   rounds exactly as the token game does and its counterexamples replay
@@ -17,7 +21,7 @@
 //!   over the profile's property ranges, see [`crate::conditions`]) is left
 //!   out, since no sensor value can let it fire.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use eamos_lang::hir::DroneId;
 use eamos_lang::Span;
@@ -176,6 +180,7 @@ pub(crate) fn subject(
     profiles: &ProfileTable,
     src: Option<&str>,
     space: Option<&Space>,
+    fold: bool,
 ) -> Subject {
     let domain = |d: DroneId, name: &str| -> Option<Domain> {
         let profile = profiles.get(net.profiles.get(d.0 as usize)?)?;
@@ -256,15 +261,31 @@ pub(crate) fn subject(
                 .push((i, a.name.to_string()));
         }
     }
-    // RepeatFor loops: the head place of each, with its count.
+    // RepeatFor loops: the head place of each, with its count, except the
+    // folded ones, whose rounds nothing outside them can count.
     let mut counted: HashMap<NodeId, (u32, Vec<u32>)> = HashMap::new();
+    let mut folded: HashSet<NodeId> = HashSet::new();
     let mut limits: Vec<Limit> = Vec::new();
     let mut too_large: Vec<Span> = Vec::new();
+    for (n, t) in net.transitions() {
+        let (count, round) = match t.guard.as_ref().map(|g| &g.kind) {
+            Some(GuardKind::IterationBelow(c)) => (*c, true),
+            Some(GuardKind::IterationAtLeast(c)) => (*c, false),
+            _ => continue,
+        };
+        if fold && round && count > 0 && net.preset(n).all(|h| crate::fold::closed_body(net, h, n))
+        {
+            folded.extend(net.preset(n));
+        }
+    }
     for (n, t) in net.transitions() {
         let count = match t.guard.as_ref().map(|g| &g.kind) {
             Some(GuardKind::IterationBelow(c)) | Some(GuardKind::IterationAtLeast(c)) => *c,
             _ => continue,
         };
+        if net.preset(n).any(|h| folded.contains(&h)) {
+            continue;
+        }
         if count > MAX_COUNTED_ROUNDS {
             // Both guarded branches of the loop come here: report it once.
             if !too_large.contains(&t.span) {
@@ -396,7 +417,9 @@ pub(crate) fn subject(
                 // Counted loops end by themselves: only the others may
                 // repeat for ever.
                 TransitionKind::LoopBack
-                    if !net.postset(n).any(|(p, _)| counted.contains_key(&p)) =>
+                    if !net
+                        .postset(n)
+                        .any(|(p, _)| counted.contains_key(&p) || folded.contains(&p)) =>
                 {
                     loops.push(ti)
                 }
@@ -450,6 +473,7 @@ pub(crate) fn subject(
         waits,
         limits,
         space,
+        folded: folded.len(),
     }
 }
 
@@ -517,9 +541,11 @@ fn too_many_rounds(count: u32, stmt: Span, src: Option<&str>) -> Limit {
             text: format!("{count} rounds, one state each"),
         }],
         notes: vec![format!(
-            "the checker counts the rounds of a `RepeatFor` exactly; above {MAX_COUNTED_ROUNDS} it \
-             does not explore, and leaves deadlock, termination, safety, dead actions and \
-             conflicts undecided (a smaller count can be checked)"
+            "the checker counts the rounds of a `RepeatFor` exactly when something outside the \
+             loop can tell them apart (here, a step of its body waits on or feeds something \
+             outside it); above {MAX_COUNTED_ROUNDS} it does not explore, and leaves deadlock, \
+             termination, safety, dead actions and conflicts undecided (a smaller count can be \
+             checked)"
         )],
     }
 }

@@ -598,5 +598,6 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
         waits: Vec::new(),
         limits: Vec::new(),
         space: None,
+        folded: 0,
     }
 }

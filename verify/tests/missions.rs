@@ -226,6 +226,57 @@ fn counted_loops_end_by_themselves_and_nothing_is_found() {
     assert!(term.notes.is_empty(), "{:?}", term.notes);
 }
 
+/// The note a check leaves when it explored loops without their counters.
+fn folded_note(r: &Report) -> Option<&String> {
+    r.properties
+        .iter()
+        .flat_map(|p| &p.notes)
+        .find(|n| n.contains("without counting their rounds"))
+}
+
+#[test]
+fn loops_that_only_their_own_body_can_count_are_proved_without_counting_rounds() {
+    let (r, net, file) = mission("folded_rounds.go");
+    assert_proved_clean(&r, "folded_rounds.go");
+    // D1's photos and D2's square; not D3's loop, which reads an event.
+    assert!(
+        folded_note(&r).is_some_and(|n| n.starts_with("2 `RepeatFor` loop(s)")),
+        "{:?}",
+        folded_note(&r)
+    );
+    let counted = check_net(
+        &net,
+        &eamos_profile::builtin(),
+        Some(&file.text),
+        &Options {
+            structural: false,
+            ..Options::default()
+        },
+    );
+    assert_proved_clean(&counted, "folded_rounds.go, counted");
+    assert_eq!(folded_note(&counted), None);
+    assert!(
+        r.stats.states < counted.stats.states,
+        "{} states folded, {} counted",
+        r.stats.states,
+        counted.stats.states
+    );
+}
+
+#[test]
+fn a_finding_beside_a_folded_loop_is_a_run_with_its_rounds_counted() {
+    // check_file replays every counterexample in the token game, whose
+    // colour guards count the rounds.
+    let (r, _, _) = mission("folded_rounds_stuck.go");
+    assert_eq!(
+        r.findings_of(FindingKind::Deadlock).count(),
+        1,
+        "{:#?}",
+        r.findings
+    );
+    assert_eq!(folded_note(&r), None);
+}
+
 #[test]
 fn a_handshake_of_signals_and_awaits_is_proved_correct() {
     let (r, _, _) = mission("handshake.go");

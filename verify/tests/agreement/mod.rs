@@ -43,6 +43,13 @@ pub fn ways() -> Vec<(&'static str, Options)> {
             way(true, true),
         ),
         ("stubborn sets", way(true, false)),
+        (
+            "stubborn sets, every loop counted",
+            Options {
+                structural: false,
+                ..way(true, false)
+            },
+        ),
         ("full exploration", way(false, false)),
     ]
 }
