@@ -86,7 +86,7 @@ use std::time::Instant;
 use hashbrown::HashTable;
 use rayon::prelude::*;
 
-use crate::ptnet::PtNet;
+use crate::ptnet::{PtNet, Seeds};
 
 pub(crate) mod deadlock;
 
@@ -616,9 +616,12 @@ fn successors<E: Encoding>(
 }
 
 /// Leaves in `s.best` the enabled transitions of the smallest stubborn set
-/// found from a few seeds.
+/// found from the seeds the net asks for ([`Seeds`]).
 fn stubborn<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, real_enabled: usize) {
-    const SEEDS: usize = 16;
+    let seeds = match net.seeds {
+        Seeds::First => 1,
+        Seeds::Smallest(n) => n,
+    };
     s.best.clear();
     // An enabled transition in conflict with nothing is a stubborn set on
     // its own (its closure adds nothing): take the first, without building
@@ -632,7 +635,7 @@ fn stubborn<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, real
         return;
     }
     s.best.extend_from_slice(&s.enabled[..real_enabled]);
-    for i in 0..real_enabled.min(SEEDS) {
+    for i in 0..real_enabled.min(seeds) {
         let seed = s.enabled[i];
         if closure::<E>(net, m, s, gen, seed) && s.cur.len() < s.best.len() {
             std::mem::swap(&mut s.cur, &mut s.best);

@@ -34,7 +34,7 @@ use petgraph::visit::EdgeRef;
 use crate::check::{ActionInfo, Subject};
 use crate::conditions::{self, Domain, Possibility};
 use crate::names::{self, fmt_num, Names};
-use crate::ptnet::{PlaceInfo, PtNet, RawTransition, StepInfo, MAX_COUNTED_ROUNDS};
+use crate::ptnet::{PlaceInfo, PtNet, RawTransition, Seeds, StepInfo, MAX_COUNTED_ROUNDS};
 use crate::report::{Finding, FindingKind, InputKind, Label, Limit};
 use crate::space::walk::Walker;
 use crate::space::{airspace, flight, model, Prepared, Space};
@@ -461,8 +461,10 @@ pub(crate) fn subject(
     exclusive.sort_unstable();
     let final_place = Some(place_index[net.final_place.index()]);
     let space = space.map(|space| prepare(net, profiles, src, space, &place_index, &origins));
+    let mut pt = PtNet::new(places, steps, raw, initial, final_place);
+    pt.seeds = Seeds::First;
     Subject {
-        pt: PtNet::new(places, steps, raw, initial, final_place),
+        pt,
         input: InputKind::Mission,
         name: net.name.clone(),
         running,

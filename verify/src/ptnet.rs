@@ -130,6 +130,31 @@ pub(crate) struct PtNet {
     pub sources: Vec<u32>,
     pub initial: Vec<u32>,
     pub final_place: Option<u32>,
+    /// How a stubborn set is picked where no enabled transition is free of
+    /// conflicts (see [`Seeds`]).
+    pub seeds: Seeds,
+}
+
+/// How many enabled transitions a stubborn set is grown from, the smallest
+/// set kept.
+///
+/// The smallest set of a state is not the smallest state space. A mission
+/// net is a few sequential processes (the drones), numbered in the order
+/// of the mission's text: growing the set from the first enabled
+/// transition only advances the mission's earliest part first in every
+/// state, the same choice everywhere, so two orders of independent steps
+/// meet again soon. Smallest-of-sixteen picked a different drone from one
+/// state to the next: a generated 32-drone mission of 20,000 nodes took
+/// 183,575 markings (3.4 s) where the first seed takes 45,157 (0.6 s), and
+/// 100 drones of 6,000 nodes 77,765 where it takes 10,760. On nets without
+/// that shape the smallest set wins (10 philosophers: 182 markings, against
+/// 1,552 from the first seed), so a PNML net keeps it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Seeds {
+    /// From the first enabled transition only (mission nets).
+    First,
+    /// From up to this many, the smallest set kept (any other net).
+    Smallest(usize),
 }
 
 /// The arcs of one transition, to build a [`PtNet`] from.
@@ -181,6 +206,7 @@ impl PtNet {
             sources: Vec::new(),
             initial,
             final_place,
+            seeds: Seeds::Smallest(16),
         };
         net.rebuild(transitions, Vec::new());
         net

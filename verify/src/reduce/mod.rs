@@ -169,8 +169,10 @@ fn pack(net: &PtNet, w: Work, applied: Applied) -> Reduced {
         roots.push(tr.origin);
     }
     let final_place = net.final_place.map(|f| index[f as usize]);
+    let mut reduced = PtNet::new(places, steps, raw, initial, final_place);
+    reduced.seeds = net.seeds;
     Reduced {
-        net: PtNet::new(places, steps, raw, initial, final_place),
+        net: reduced,
         roots,
         origins: w.origins,
         applied,

@@ -152,8 +152,11 @@ pub(crate) fn extend(pt: &PtNet, conc: &Concurrency, prep: &Prepared) -> Extende
     }
     // Without rest records the net is the one it was: no need to build it
     // again (the big missions keep their drones apart, and pay nothing).
-    let net =
-        (!resting.is_empty()).then(|| PtNet::new(places, steps, raw, initial, pt.final_place));
+    let net = (!resting.is_empty()).then(|| {
+        let mut recorded = PtNet::new(places, steps, raw, initial, pt.final_place);
+        recorded.seeds = pt.seeds;
+        recorded
+    });
     let monitors = candidates
         .iter()
         .enumerate()
