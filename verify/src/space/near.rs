@@ -231,39 +231,80 @@ fn candidates(
         }
         best.filter(|b| b.0.distance < sep)
     };
-    for (m, a) in pos.motions.iter().enumerate() {
-        let Some(ba) = leg_bounds[m] else { continue };
-        for (n, b) in pos.motions.iter().enumerate().skip(m + 1) {
-            if a.drone == b.drone || !conc.get(prep.running[m], prep.running[n]) {
-                continue;
-            }
-            if !leg_bounds[n].is_some_and(|bb| overlap(ba, bb)) {
-                continue;
-            }
-            if let Some((c, x, y)) = closest(&legs[m], &legs[n]) {
-                out.push(Candidate {
-                    motion: m,
-                    other: Other::Moving(n),
-                    closest: c,
-                    shapes: (x, y),
-                });
-            }
+    let rest_bounds: Vec<Option<(Vec3, Vec3)>> =
+        rests.iter().map(|(_, _, s)| bounds(s, 0.0)).collect();
+    // Keyed by the motion, then its moving others before its resting ones,
+    // each in order: the order in which every pair used to be compared.
+    let mut found: Vec<((usize, u8, usize), Candidate)> = Vec::new();
+    overlapping(&leg_bounds, &leg_bounds, |m, n| {
+        let (a, b) = (&pos.motions[m], &pos.motions[n]);
+        if n <= m || a.drone == b.drone || !conc.get(prep.running[m], prep.running[n]) {
+            return;
         }
-        for (d, last, shapes) in &rests {
-            if *d == a.drone || !bounds(shapes, 0.0).is_some_and(|bb| overlap(ba, bb)) {
-                continue;
-            }
-            if let Some((c, x, y)) = closest(&legs[m], shapes) {
-                out.push(Candidate {
-                    motion: m,
-                    other: Other::Resting(*d, *last),
-                    closest: c,
-                    shapes: (x, y),
-                });
+        if let Some((c, x, y)) = closest(&legs[m], &legs[n]) {
+            let candidate = Candidate {
+                motion: m,
+                other: Other::Moving(n),
+                closest: c,
+                shapes: (x, y),
+            };
+            found.push(((m, 0, n), candidate));
+        }
+    });
+    overlapping(&leg_bounds, &rest_bounds, |m, r| {
+        let (d, last, shapes) = &rests[r];
+        if *d == pos.motions[m].drone {
+            return;
+        }
+        if let Some((c, x, y)) = closest(&legs[m], shapes) {
+            let candidate = Candidate {
+                motion: m,
+                other: Other::Resting(*d, *last),
+                closest: c,
+                shapes: (x, y),
+            };
+            found.push(((m, 1, r), candidate));
+        }
+    });
+    found.sort_by_key(|(key, _)| *key);
+    out.extend(found.into_iter().map(|(_, c)| c));
+    out
+}
+
+/// Calls `pair(i, j)` for each box `i` of `a` and box `j` of `b` that
+/// overlap, in no particular order: a sweep along x over both, sorted by
+/// their low ends. Comparing every leg with every other was most of the
+/// check of a 200-drone mission.
+fn overlapping(
+    a: &[Option<(Vec3, Vec3)>],
+    b: &[Option<(Vec3, Vec3)>],
+    mut pair: impl FnMut(usize, usize),
+) {
+    let by_low_x = |boxes: &[Option<(Vec3, Vec3)>]| {
+        let mut order: Vec<(usize, (Vec3, Vec3))> = boxes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, bx)| bx.map(|bx| (i, bx)))
+            .collect();
+        order.sort_by(|x, y| x.1 .0.x.total_cmp(&y.1 .0.x));
+        order
+    };
+    let (sa, sb) = (by_low_x(a), by_low_x(b));
+    // `b`'s boxes whose low x has been passed and whose high x has not.
+    let mut open: Vec<(usize, (Vec3, Vec3))> = Vec::new();
+    let mut next = 0;
+    for &(i, ba) in &sa {
+        while next < sb.len() && sb[next].1 .0.x <= ba.1.x {
+            open.push(sb[next]);
+            next += 1;
+        }
+        open.retain(|(_, bb)| bb.1.x >= ba.0.x);
+        for &(j, bb) in &open {
+            if overlap(ba, bb) {
+                pair(i, j);
             }
         }
     }
-    out
 }
 
 /// The bounding box of shapes, grown by `margin`.
@@ -289,4 +330,43 @@ fn overlap(a: (Vec3, Vec3), b: (Vec3, Vec3)) -> bool {
         && b.0.y <= a.1.y
         && a.0.z <= b.1.z
         && b.0.z <= a.1.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn boxes() -> impl Strategy<Value = Vec<Option<(Vec3, Vec3)>>> {
+        let corner = || (-20.0..20.0f64, -20.0..20.0f64, -5.0..5.0f64);
+        let size = || (0.0..15.0f64, 0.0..15.0f64, 0.0..4.0f64);
+        proptest::collection::vec(
+            proptest::option::weighted(0.9, (corner(), size())).prop_map(|b| {
+                b.map(|((x, y, z), (w, d, h))| {
+                    (Vec3::new(x, y, z), Vec3::new(x + w, y + d, z + h))
+                })
+            }),
+            0..40,
+        )
+    }
+
+    proptest! {
+        #[test]
+        fn the_sweep_finds_exactly_the_pairs_of_boxes_that_overlap(a in boxes(), b in boxes()) {
+            let mut swept = Vec::new();
+            overlapping(&a, &b, |i, j| swept.push((i, j)));
+            swept.sort_unstable();
+            let mut every = Vec::new();
+            for (i, x) in a.iter().enumerate() {
+                for (j, y) in b.iter().enumerate() {
+                    if let (Some(x), Some(y)) = (x, y) {
+                        if overlap(*x, *y) {
+                            every.push((i, j));
+                        }
+                    }
+                }
+            }
+            prop_assert_eq!(swept, every);
+        }
+    }
 }

@@ -196,7 +196,11 @@ impl<'n> Walker<'n> {
         let mut seen: HashSet<Token> = HashSet::new();
         let mut visited: HashSet<NodeId> = HashSet::new();
         let mut crossed: HashSet<NodeId> = HashSet::new();
-        let mut waiting: Vec<(NodeId, Colour, Option<u32>)> = Vec::new();
+        // Joins waiting for their block's branches, each once: a block of
+        // 200 drones' branches, all skipped, would queue its join 200
+        // times, and each wave below looks at every one.
+        let mut waiting: Vec<Token> = Vec::new();
+        let mut queued: HashSet<Token> = HashSet::new();
         let mut stops: HashSet<(NodeId, Colour)> = HashSet::new();
         let mut reach = Reach::default();
         let mut stack: Vec<Token> = seeds
@@ -233,7 +237,9 @@ impl<'n> Walker<'n> {
                         Some(TransitionKind::Join)
                             if self.fork_of.get(&t).is_some_and(|f| crossed.contains(f)) =>
                         {
-                            waiting.push((t, c.clone(), cut));
+                            if queued.insert((t, c.clone(), cut)) {
+                                waiting.push((t, c.clone(), cut));
+                            }
                             continue;
                         }
                         _ => {}
@@ -245,7 +251,9 @@ impl<'n> Walker<'n> {
                             // the join with the token it set out with.
                             Some(b) => {
                                 visited.extend(b.ends.iter().copied());
-                                waiting.push((b.join, c, cut));
+                                if queued.insert((b.join, c.clone(), cut)) {
+                                    waiting.push((b.join, c, cut));
+                                }
                             }
                             None => stack.push((q, c, cut)),
                         }
