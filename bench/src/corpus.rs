@@ -102,8 +102,15 @@ pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
     let peak_file = entry.file.with_extension("peak");
     let timed = Path::new("/usr/bin/time").exists();
     let mut cmd = if timed {
-        // `/proc/self/exe` would name `time` itself once it runs.
-        let exe = std::fs::read_link(exe).unwrap_or_else(|_| exe.to_path_buf());
+        // `/proc/self/exe` would name `time` itself once it runs; this
+        // process's own entry still reaches the program when a rebuild has
+        // replaced the file meanwhile, as reading the link would not.
+        let own = PathBuf::from(format!("/proc/{}/exe", std::process::id()));
+        let exe = if exe == Path::new("/proc/self/exe") && own.exists() {
+            own
+        } else {
+            exe.to_path_buf()
+        };
         let mut c = Command::new("/usr/bin/time");
         c.args(["-f", "%M", "-o"]).arg(&peak_file).arg(exe);
         c

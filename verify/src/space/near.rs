@@ -342,9 +342,7 @@ mod tests {
         let size = || (0.0..15.0f64, 0.0..15.0f64, 0.0..4.0f64);
         proptest::collection::vec(
             proptest::option::weighted(0.9, (corner(), size())).prop_map(|b| {
-                b.map(|((x, y, z), (w, d, h))| {
-                    (Vec3::new(x, y, z), Vec3::new(x + w, y + d, z + h))
-                })
+                b.map(|((x, y, z), (w, d, h))| (Vec3::new(x, y, z), Vec3::new(x + w, y + d, z + h)))
             }),
             0..40,
         )
