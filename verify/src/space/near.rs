@@ -96,6 +96,44 @@ pub(crate) fn extend(pt: &PtNet, conc: &Concurrency, prep: &Prepared) -> Extende
             Other::Moving(_) => None,
         })
         .collect();
+    // Without rest records the net is the one it was: no need to copy and
+    // build it again (the big missions keep their drones apart, and pay
+    // nothing).
+    let (net, last_place) = if resting.is_empty() {
+        (None, BTreeMap::new())
+    } else {
+        let (net, last_place) = record_rests(pt, pos, prep, &resting);
+        (Some(net), last_place)
+    };
+    let monitors = candidates
+        .iter()
+        .enumerate()
+        .map(|(i, c)| MonitorKind::Near {
+            a: prep.running[c.motion],
+            b: match c.other {
+                Other::Moving(m) => prep.running[m],
+                Other::Resting(d, l) => last_place[&(d, l)],
+            },
+            pair: i as u32,
+        })
+        .collect();
+    Extended {
+        net,
+        monitors,
+        candidates,
+        unordered,
+        too_many: None,
+    }
+}
+
+/// The net with a record of where each drone of `resting` rests: one place
+/// per rest, moved by the ends and cancels of its motions.
+fn record_rests(
+    pt: &PtNet,
+    pos: &Positions,
+    prep: &Prepared,
+    resting: &BTreeSet<u16>,
+) -> (PtNet, BTreeMap<(u16, Last), u32>) {
     let mut places = pt.places.clone();
     let mut initial = pt.initial.clone();
     let mut raw = pt.raw();
@@ -103,7 +141,7 @@ pub(crate) fn extend(pt: &PtNet, conc: &Concurrency, prep: &Prepared) -> Extende
     // One "last" place per rest of every ordered drone, also those that
     // never fly (they rest at home throughout).
     let mut last_place: BTreeMap<(u16, Last), u32> = BTreeMap::new();
-    for &d in &resting {
+    for &d in resting {
         for last in pos.lasts(d) {
             let i = places.len() as u32;
             places.push(PlaceInfo {
@@ -150,32 +188,9 @@ pub(crate) fn extend(pt: &PtNet, conc: &Concurrency, prep: &Prepared) -> Extende
             }
         }
     }
-    // Without rest records the net is the one it was: no need to build it
-    // again (the big missions keep their drones apart, and pay nothing).
-    let net = (!resting.is_empty()).then(|| {
-        let mut recorded = PtNet::new(places, steps, raw, initial, pt.final_place);
-        recorded.seeds = pt.seeds;
-        recorded
-    });
-    let monitors = candidates
-        .iter()
-        .enumerate()
-        .map(|(i, c)| MonitorKind::Near {
-            a: prep.running[c.motion],
-            b: match c.other {
-                Other::Moving(m) => prep.running[m],
-                Other::Resting(d, l) => last_place[&(d, l)],
-            },
-            pair: i as u32,
-        })
-        .collect();
-    Extended {
-        net,
-        monitors,
-        candidates,
-        unordered,
-        too_many: None,
-    }
+    let mut recorded = PtNet::new(places, steps, raw, initial, pt.final_place);
+    recorded.seeds = pt.seeds;
+    (recorded, last_place)
 }
 
 fn last_id(last: Last) -> String {
