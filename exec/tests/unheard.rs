@@ -61,19 +61,23 @@ async fn relay(to: u16, sent: Arc<AtomicU64>) -> u16 {
     port
 }
 
+/// D1's telemetry sample number `seq`, of 64 bytes.
+fn sample(seq: u64) -> TelemetryFrame {
+    TelemetryFrame {
+        mission: MISSION.into(),
+        drone: "D1".into(),
+        seq,
+        body: vec![7; 64],
+    }
+}
+
 /// Bytes the drone sends while it publishes `n` samples of telemetry, a
 /// few milliseconds apart, counted from the first to a settling time after
 /// the last.
 async fn bytes_for(link: &dyn Link, sent: &AtomicU64, n: u64, first_seq: u64) -> u64 {
     let before = sent.load(Ordering::Relaxed);
     for seq in first_seq..first_seq + n {
-        let sample = TelemetryFrame {
-            mission: MISSION.into(),
-            drone: "D1".into(),
-            seq,
-            body: vec![7; 64],
-        };
-        link.publish_telemetry(&sample).await.unwrap();
+        link.publish_telemetry(&sample(seq)).await.unwrap();
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
@@ -130,13 +134,7 @@ async fn a_drones_telemetry_crosses_the_network_only_while_a_peer_subscribes_to_
     let mut seq = 1000;
     loop {
         seq += 1;
-        let sample = TelemetryFrame {
-            mission: MISSION.into(),
-            drone: "D1".into(),
-            seq,
-            body: vec![7; 64],
-        };
-        link.publish_telemetry(&sample).await.unwrap();
+        link.publish_telemetry(&sample(seq)).await.unwrap();
         let heard = tokio::time::timeout(Duration::from_millis(200), reader.telemetry.recv());
         if let Ok(Some(_)) = heard.await {
             break;
