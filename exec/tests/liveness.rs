@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use eamos_exec::event::{Channel, Event, Kind};
+use eamos_exec::executor::Report;
 use eamos_exec::log::read_mission_log;
 use eamos_exec::runner::{run_fleet, RunOptions, RunReport};
 use eamos_exec::transport::faulty::Partition;
@@ -42,6 +43,15 @@ fn slices_of(name: &str, text: &str) -> (Slices, Arc<SourceFile>) {
     (eamos_slicer::slice(&net).unwrap(), Arc::new(file))
 }
 
+/// Whom Lead is cut off from.
+#[derive(Clone, Copy)]
+enum Cut {
+    Everyone,
+    /// These peers only: Lead and the rest of the fleet still hear each
+    /// other.
+    From(&'static [&'static str]),
+}
+
 /// When to heal the partition again (the hold test), if ever.
 #[derive(Clone, Copy, PartialEq)]
 enum Heal {
@@ -60,13 +70,15 @@ impl Run {
     }
 
     fn outcome(&self, peer: &str) -> &Outcome {
-        &self
-            .report
+        &self.report_of(peer).outcome
+    }
+
+    fn report_of(&self, peer: &str) -> &Report {
+        self.report
             .reports
             .iter()
             .find(|r| r.drone == peer)
             .unwrap()
-            .outcome
     }
 
     fn failsafes(&self, peer: &str) -> Vec<(String, bool)> {
@@ -99,14 +111,15 @@ impl Run {
 /// Flies the mission with `fleet`, cutting Lead off as it starts its long
 /// leg.
 async fn fly_and_cut_lead(fleet: &str, heal: Heal) -> Run {
-    fly_mission_and_cut_lead(slices(), fleet, heal).await
+    fly_mission_and_cut_lead(slices(), fleet, Cut::Everyone, heal).await
 }
 
-/// Flies `mission` with `fleet`, cutting Lead off as it starts its first
-/// `FlyByX`.
+/// Flies `mission` with `fleet`, cutting Lead off (from everyone or from
+/// some peers) as it starts its first `FlyByX`.
 async fn fly_mission_and_cut_lead(
     (slices, source): (Slices, Arc<SourceFile>),
     fleet: &str,
+    cut_from: Cut,
     heal: Heal,
 ) -> Run {
     let fleet = Fleet::parse(
@@ -135,7 +148,14 @@ async fn fly_mission_and_cut_lead(
                 ("Lead", Kind::ActionStarted { action, .. })
                     if action.starts_with("FlyByX") && !cut =>
                 {
-                    partition.cut("Lead");
+                    match cut_from {
+                        Cut::Everyone => partition.cut("Lead"),
+                        Cut::From(peers) => {
+                            for p in peers {
+                                partition.cut_between("Lead", p);
+                            }
+                        }
+                    }
                     cut = true;
                 }
                 ("Follow", Kind::Stuck { .. }) if heal == Heal::WhenFollowIsStuck => {
@@ -160,12 +180,7 @@ async fn fly_mission_and_cut_lead(
 /// Follow stuck on it; nobody flew a failsafe twice.
 fn check_common(run: &Run, policy: &str) {
     if policy != "abort" {
-        let free = run
-            .report
-            .reports
-            .iter()
-            .find(|r| r.drone == "Free")
-            .unwrap();
+        let free = run.report_of("Free");
         assert_eq!(
             free.actions, 5,
             "Free carries on untouched: {:?}",
@@ -331,6 +346,40 @@ async fn a_drone_cut_off_from_everyone_decides_alone_once_it_has_nothing_left_to
     );
 }
 
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_drone_that_lost_its_neighbours_decides_alone_though_another_drone_is_still_up() {
+    // Lead's neighbours are Follow (its signal's bridge) and the ground
+    // station; Free, with which it shares nothing, stays in reach.
+    let run = fly_mission_and_cut_lead(
+        slices(),
+        "[failsafe]\ngrace = 2\non_lost = \"land\"\n",
+        Cut::From(&["Follow", "GCS"]),
+        Heal::Never,
+    )
+    .await;
+    let lead = run.stuck("Lead");
+    assert_eq!(
+        lead,
+        vec![(
+            vec!["Follow".to_string(), "GCS".to_string()],
+            "land".to_string()
+        )],
+        "Lead is stuck on its neighbours, not on Free"
+    );
+    assert!(
+        matches!(run.outcome("Lead"), Outcome::PeerLost { lost, .. } if lost == &["Follow", "GCS"]),
+        "{:?}",
+        run.outcome("Lead")
+    );
+    let free = run.report_of("Free");
+    assert_eq!(free.actions, 5, "Free flew its part: {:?}", free.outcome);
+    assert!(
+        run.stuck("Free").is_empty(),
+        "Free lost nobody it follows: {:?}",
+        run.stuck("Free")
+    );
+}
+
 /// The mission of the condition tests: Free hovers a while on its own,
 /// Lead sets off on a long leg (and is cut as it does), Follow flies out,
 /// pauses, and then its part depends on `follow_waits`, a guard leading to
@@ -436,12 +485,7 @@ fn check_stuck_on_a_condition(run: &Run) {
         (end - (home + Vec3::new(0.0, 5.0, 0.0))).horizontal_norm() < 0.5,
         "Follow landed where it waited: {end}, home {home}"
     );
-    let free = run
-        .report
-        .reports
-        .iter()
-        .find(|r| r.drone == "Free")
-        .unwrap();
+    let free = run.report_of("Free");
     assert_eq!(free.actions, 4, "Free carries on untouched");
 }
 
@@ -450,7 +494,7 @@ const LAND_AFTER_2S: &str = "[drones.Follow]\non_lost = \"land\"\ngrace = 2\n";
 /// Flies a condition test's mission: Lead is cut for good, and Follow lands
 /// once it has been stuck on Lead for 2 s.
 async fn fly_watching_and_cut_lead(mission: (Slices, Arc<SourceFile>)) -> Run {
-    fly_mission_and_cut_lead(mission, LAND_AFTER_2S, Heal::Never).await
+    fly_mission_and_cut_lead(mission, LAND_AFTER_2S, Cut::Everyone, Heal::Never).await
 }
 
 /// Follow never counted itself stuck on anyone.

@@ -8,7 +8,10 @@
 //! A [`Partition`] shared by the links of a fleet cuts peers off the
 //! network on demand, as a radio out of range would: nothing the cut peer
 //! sends or is sent gets through, its telemetry is lost, and the presence
-//! each side sees loses the other (the cut peer sees itself alone).
+//! each side sees loses the other (the cut peer sees itself alone). It can
+//! also cut the link between two peers only, as when a drone flies out of
+//! range of some of the fleet but not of the rest: the two lose each
+//! other's frames and presence, and both still hear everyone else.
 
 use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
@@ -61,16 +64,30 @@ pub struct FaultyLink {
     partition: Option<Partition>,
 }
 
-/// Which peers are cut off the network; shared by every link of a fleet.
+/// Which peers are cut off the network, and which pairs of peers from
+/// each other; shared by every link of a fleet.
 #[derive(Clone)]
 pub struct Partition {
-    cut: Arc<watch::Sender<BTreeSet<PeerId>>>,
+    cut: Arc<watch::Sender<Cuts>>,
+}
+
+#[derive(Default)]
+struct Cuts {
+    /// Peers that reach nobody.
+    peers: BTreeSet<PeerId>,
+    /// Pairs that do not reach each other, the smaller name first.
+    pairs: BTreeSet<(PeerId, PeerId)>,
+}
+
+fn pair(a: &str, b: &str) -> (PeerId, PeerId) {
+    let (a, b) = if a <= b { (a, b) } else { (b, a) };
+    (a.to_string(), b.to_string())
 }
 
 impl Default for Partition {
     fn default() -> Self {
         Partition {
-            cut: Arc::new(watch::channel(BTreeSet::new()).0),
+            cut: Arc::new(watch::channel(Cuts::default()).0),
         }
     }
 }
@@ -83,21 +100,38 @@ impl Partition {
     /// Cuts `peer` off: from now on it reaches nobody and nobody reaches it.
     pub fn cut(&self, peer: &str) {
         self.cut.send_modify(|c| {
-            c.insert(peer.to_string());
+            c.peers.insert(peer.to_string());
         });
     }
 
-    /// Puts `peer` back on the network.
+    /// Puts `peer` back on the network (a cut between it and another
+    /// peer stays).
     pub fn heal(&self, peer: &str) {
         self.cut.send_modify(|c| {
-            c.remove(peer);
+            c.peers.remove(peer);
+        });
+    }
+
+    /// Cuts `a` and `b` off from each other only: each still reaches, and
+    /// is reached by, every other peer. Telemetry and events, which a peer
+    /// publishes to all at once, still pass between them; frames and
+    /// presence do not.
+    pub fn cut_between(&self, a: &str, b: &str) {
+        self.cut.send_modify(|c| {
+            c.pairs.insert(pair(a, b));
         });
     }
 
     /// Whether `a` and `b` cannot hear each other.
     pub fn separates(&self, a: &str, b: &str) -> bool {
         let cut = self.cut.borrow();
-        a != b && (cut.contains(a) || cut.contains(b))
+        a != b
+            && (cut.peers.contains(a) || cut.peers.contains(b) || cut.pairs.contains(&pair(a, b)))
+    }
+
+    /// Whether `peer` reaches nobody.
+    fn isolates(&self, peer: &str) -> bool {
+        self.cut.borrow().peers.contains(peer)
     }
 
     /// What `me` sees of `up` through the partition.
@@ -211,10 +245,8 @@ impl Link for FaultyLink {
 
     async fn publish_telemetry(&self, sample: &TelemetryFrame) -> Result<(), TransportError> {
         let me = self.inner.me();
-        if let Some(p) = &self.partition {
-            if p.cut.borrow().contains(me) {
-                return Ok(());
-            }
+        if self.partition.as_ref().is_some_and(|p| p.isolates(me)) {
+            return Ok(());
         }
         self.inner.publish_telemetry(sample).await
     }
@@ -225,10 +257,8 @@ impl Link for FaultyLink {
         state: Option<&'static str>,
     ) -> Result<(), TransportError> {
         let me = self.inner.me();
-        if let Some(p) = &self.partition {
-            if p.cut.borrow().contains(me) {
-                return Ok(());
-            }
+        if self.partition.as_ref().is_some_and(|p| p.isolates(me)) {
+            return Ok(());
         }
         self.inner.publish_event(line, state).await
     }
@@ -342,17 +372,23 @@ mod tests {
         assert_eq!(a, b);
     }
 
+    /// `endpoint`'s link behind `partition`, and its frames.
+    fn behind(
+        partition: &Partition,
+        endpoint: crate::transport::Endpoint,
+    ) -> (Arc<dyn Link>, tokio::sync::mpsc::UnboundedReceiver<Frame>) {
+        let link = FaultyLink::new(endpoint.link, Faults::default());
+        (
+            Arc::new(link.with_partition(partition.clone())),
+            endpoint.frames,
+        )
+    }
+
     #[tokio::test]
     async fn a_cut_peer_reaches_nobody_is_reached_by_nobody_and_sees_itself_alone() {
         let hub = InProcessHub::new();
         let partition = Partition::new();
-        let wrap = |e: crate::transport::Endpoint| {
-            let link: Arc<dyn Link> = Arc::new(
-                FaultyLink::new(e.link.clone(), Faults::default())
-                    .with_partition(partition.clone()),
-            );
-            (link, e.frames)
-        };
+        let wrap = |e| behind(&partition, e);
         let (a, mut a_frames) = wrap(hub.connect("D1", &[]));
         let (b, mut b_frames) = wrap(hub.connect("D2", &[]));
         let (_c, _) = wrap(hub.connect("D3", &[]));
@@ -375,6 +411,34 @@ mod tests {
         assert!(a_sees.borrow().contains("D2"));
         a.send("D2", &token(3)).await.unwrap();
         assert_eq!(b_frames.recv().await.unwrap(), token(3));
+    }
+
+    #[tokio::test]
+    async fn a_cut_between_two_peers_parts_them_and_leaves_both_with_the_rest() {
+        let hub = InProcessHub::new();
+        let partition = Partition::new();
+        let wrap = |e| behind(&partition, e);
+        let (a, _a_frames) = wrap(hub.connect("D1", &[]));
+        let (b, mut b_frames) = wrap(hub.connect("D2", &[]));
+        let (c, mut c_frames) = wrap(hub.connect("D3", &[]));
+        let mut a_sees = a.presence().unwrap();
+        let mut c_sees = c.presence().unwrap();
+        assert_eq!(a_sees.borrow_and_update().len(), 3);
+
+        partition.cut_between("D2", "D1");
+        tokio::time::timeout(Duration::from_secs(5), a_sees.changed())
+            .await
+            .expect("D1 sees D2 go")
+            .unwrap();
+        let a_now: Vec<PeerId> = a_sees.borrow().iter().cloned().collect();
+        assert_eq!(a_now, vec!["D1".to_string(), "D3".to_string()]);
+        assert_eq!(c_sees.borrow_and_update().len(), 3, "D3 still sees both");
+        a.send("D2", &token(1)).await.unwrap();
+        a.send("D3", &token(2)).await.unwrap();
+        b.send("D3", &token(3)).await.unwrap();
+        assert_eq!(c_frames.recv().await.unwrap(), token(2));
+        assert_eq!(c_frames.recv().await.unwrap(), token(3));
+        assert!(b_frames.try_recv().is_err(), "D1's frame to D2 was lost");
     }
 
     #[tokio::test]
