@@ -94,7 +94,7 @@ async fn play(slices: &Slices, profiles: &ProfileTable, fired: Arc<Firings>) {
     let hub = InProcessHub::new();
     let clock = MissionClock::wall();
     let peers: Vec<String> = std::iter::once(GCS.to_string())
-        .chain(slices.distributed.drones.iter().cloned())
+        .chain(slices.drones.iter().cloned())
         .collect();
     let mut runs = Vec::new();
     for slice in &slices.slices {

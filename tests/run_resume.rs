@@ -163,7 +163,7 @@ fn fly(mission: &'static str, speed: &'static str, grace: u32) -> Flight {
         speed,
         grace,
     };
-    for d in &slices(mission).distributed.drones {
+    for d in &slices(mission).drones {
         f.start(&["--drone", d], 1);
     }
     f.start(&["--gcs"], 1);

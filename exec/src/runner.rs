@@ -143,7 +143,7 @@ pub struct RunReport {
 /// Every peer of a mission: the ground station, then the drones in the
 /// mission's order.
 pub fn peers(slices: &Slices) -> Vec<String> {
-    peers_of(&slices.distributed.drones)
+    peers_of(&slices.drones)
 }
 
 /// The ground station, then `drones`.
@@ -540,11 +540,11 @@ pub async fn run_fleet(
             .map(|e| partitioned(e, options))?,
         );
     }
-    let drones = slices.distributed.drones.clone();
+    let drones = slices.drones.clone();
     let airframes = recorded_airframes(&drones, &journals, options)?;
     let profile_of = |d: &str| {
         let index = drones.iter().position(|x| x == d)?;
-        slices.distributed.profiles.get(index).cloned()
+        slices.profiles.get(index).cloned()
     };
     let paths = Arc::new(Paths::default());
     let events = run_sink(&logs, &paths, options);

@@ -122,13 +122,7 @@ async fn fly_mission_and_cut_lead(
     cut_from: Cut,
     heal: Heal,
 ) -> Run {
-    let fleet = Fleet::parse(
-        fleet,
-        "fleet.toml",
-        &slices.mission,
-        &slices.distributed.drones,
-    )
-    .unwrap();
+    let fleet = Fleet::parse(fleet, "fleet.toml", &slices.mission, &slices.drones).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let partition = Partition::new();
     let (events, mut events_rx) = Channel::new();

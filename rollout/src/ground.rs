@@ -156,7 +156,7 @@ impl RollOut {
     /// Sends each drone of `slices` its slice unless it holds it already.
     pub async fn deliver(&self, slices: &Slices) -> BTreeMap<String, Delivery> {
         let mut out = BTreeMap::new();
-        for drone in &slices.distributed.drones {
+        for drone in &slices.drones {
             let slice = slices.get(drone).expect("every drone has a slice");
             let digest = slice_digest(slice);
             let d = match self.status(drone).await {
@@ -231,7 +231,6 @@ impl RollOut {
             session: self.session.clone(),
             issued_at_ms: abort::unix_ms(),
             digests: slices
-                .distributed
                 .drones
                 .iter()
                 .filter_map(|d| slices.get(d).map(|s| (d.clone(), slice_digest(s))))
@@ -245,7 +244,7 @@ impl RollOut {
     /// Sends the start command to every drone; what each answered.
     pub async fn start(&self, slices: &Slices, run: &RunOptions) -> BTreeMap<String, Answer> {
         let sealed = self.seal_start(&self.start_command(slices, run));
-        self.send_start(&slices.distributed.drones, sealed).await
+        self.send_start(&slices.drones, sealed).await
     }
 
     /// The sealed envelope of `start`, as the agents receive it.

@@ -27,10 +27,10 @@ pub struct Slices {
     /// The mission identity every slice carries (see [`slice_as`]).
     pub mission_id: String,
     pub slices: Vec<Slice>,
-    /// The mission net after bundling, every node owned: cutting it along
-    /// owners gives [`Slices::slices`]; its arcs between owners are exactly
-    /// the bridges. Kept for drawings and checks.
-    pub distributed: Net,
+    /// The mission's drones, in the order it declares them.
+    pub drones: Vec<String>,
+    /// Each drone's capability profile, in the same order.
+    pub profiles: Vec<String>,
 }
 
 impl Slices {
@@ -101,8 +101,40 @@ pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
     slice_under(net, || identity.to_string())
 }
 
+/// Slices a mission net as [`slice`] does, and gives the distributed net
+/// beside the slices: the mission net after bundling, every node owned,
+/// whose cut along owners ([`cut_along_owners`]) gives the slices and whose
+/// arcs between owners are exactly the bridges. For drawings and checks of
+/// the slicer: [`slice`] frees the distributed net once it is cut.
+pub fn slice_distributed(net: &Net) -> Result<(Slices, Net), SliceError> {
+    let distributed = distribute(net)?;
+    let identity = net_id(net);
+    let slices = Slices {
+        mission: net.name.clone(),
+        slices: cut_along_owners(&distributed, &identity),
+        mission_id: identity,
+        drones: net.drones.clone(),
+        profiles: net.profiles.clone(),
+    };
+    Ok((slices, distributed))
+}
+
 /// [`slice_as`], asking for the identity only when the slices are cut.
 fn slice_under(net: &Net, identity: impl FnOnce() -> String) -> Result<Slices, SliceError> {
+    let distributed = distribute(net)?;
+    let identity = identity();
+    Ok(Slices {
+        mission: net.name.clone(),
+        slices: cut_along_owners(&distributed, &identity),
+        mission_id: identity,
+        drones: net.drones.clone(),
+        profiles: net.profiles.clone(),
+    })
+}
+
+/// The distributed net: `net` partitioned among its owners, bundled, every
+/// node owned.
+fn distribute(net: &Net) -> Result<Net, SliceError> {
     if let Some(name) = net.drones.iter().find(|d| *d == GCS) {
         return Err(SliceError::ReservedName(name.clone()));
     }
@@ -135,23 +167,14 @@ fn slice_under(net: &Net, identity: impl FnOnce() -> String) -> Result<Slices, S
     let assignment = assign(work, &units, &facts, &owners);
     let owner = assignment.node_owners(&units);
     let bundles = plan_bundles(work, &facts, &owner);
-    let distributed = apply_bundles(work, &owner, &bundles, end.as_ref());
-    // The partition's working state is done with: freed before the cut,
+    // The partition's working state is dropped on return, before the cut:
     // its memory is reused by the slices instead of adding to the peak.
-    drop((units, facts, assignment, owner, bundles, end));
-    let identity = identity();
-    let slices = cut_along_owners(&distributed, &identity);
-    Ok(Slices {
-        mission: net.name.clone(),
-        mission_id: identity,
-        slices,
-        distributed,
-    })
+    Ok(apply_bundles(work, &owner, &bundles, end.as_ref()))
 }
 
-/// The slices of a net whose nodes all have their owner (as
-/// [`Slices::distributed`]): every arc between two owners becomes a bridge.
-/// Cutting [`Slices::distributed`] again gives [`Slices::slices`]; the
+/// The slices of a net whose nodes all have their owner (the distributed
+/// net of [`slice_distributed`]): every arc between two owners becomes a
+/// bridge. Cutting the distributed net again gives the same slices; the
 /// mutation tests cut a net with nodes moved to other owners, to see that a
 /// wrong slicing is told apart from a right one.
 pub fn cut_along_owners(distributed: &Net, identity: &str) -> Vec<Slice> {

@@ -7,7 +7,7 @@
 //! events as the net it came from) and never touches the network.
 //!
 //! ```text
-//! slice(&net) -> Slices { slices: [GCS, Drone1, ...], distributed, mission_id }
+//! slice(&net) -> Slices { slices: [GCS, Drone1, ...], drones, profiles, mission_id }
 //! ```
 //!
 //! # The algorithm
@@ -138,7 +138,7 @@ pub mod wire;
 mod work;
 
 pub use codec::MAGIC;
-pub use distribute::{cut_along_owners, net_id, slice, slice_as, Slices};
+pub use distribute::{cut_along_owners, net_id, slice, slice_as, slice_distributed, Slices};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};

@@ -23,7 +23,7 @@ use std::sync::Mutex;
 use common::mutate::{mutant, Kind, KINDS};
 use eamos_slicer::compose::compose;
 use eamos_slicer::equivalence::{compare, explore, Verdict};
-use eamos_slicer::{slice, Slice};
+use eamos_slicer::{slice_distributed, Slice};
 use proptest::prelude::*;
 
 const DEFAULT_CASES: u32 = 300;
@@ -81,13 +81,14 @@ fn every_mutant_of_the_slices_of_random_missions_is_caught() {
     let strategy = (common::gen::mission(), any::<usize>());
     common::run(DEFAULT_CASES, &strategy, |(case, pick)| {
         let (_, net) = common::compiled(&case)?;
-        let slices = slice(&net).map_err(|e| format!("slicing failed: {e}"))?;
+        let (slices, distributed) =
+            slice_distributed(&net).map_err(|e| format!("slicing failed: {e}"))?;
         let composed = compose(&slices.slices).map_err(|e| e.to_string())?;
         let fired = explore(&composed, common::BUDGET.markings)
             .map(|e| e.fired)
             .ok_or("the slices' state space is beyond the budget")?;
         for kind in KINDS {
-            let Some(m) = mutant(kind, &net, &slices, &fired, pick) else {
+            let Some(m) = mutant(kind, &net, &slices, &distributed, &fired, pick) else {
                 continue;
             };
             let outcome = judge(&net, &m)?;

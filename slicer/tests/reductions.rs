@@ -20,7 +20,7 @@ use common::mutate::{mutant, KINDS};
 use eamos_petri::Net;
 use eamos_slicer::compose::compose;
 use eamos_slicer::equivalence::{compare_with, explore, Budget, Reductions, Verdict};
-use eamos_slicer::slice;
+use eamos_slicer::slice_distributed;
 use proptest::prelude::*;
 
 const DEFAULT_CASES: u32 = 400;
@@ -58,13 +58,21 @@ fn the_reduced_search_gives_the_verdicts_of_the_plain_one() {
     let strategy = (common::gen::small_mission(), any::<usize>());
     common::run(DEFAULT_CASES, &strategy, |(case, pick)| {
         let (_, net) = common::compiled(&case)?;
-        let slices = slice(&net).map_err(|e| format!("slicing failed: {e}"))?;
+        let (slices, distributed) =
+            slice_distributed(&net).map_err(|e| format!("slicing failed: {e}"))?;
         let composed = compose(&slices.slices).map_err(|e| e.to_string())?;
         let mut pairs = vec![(composed.clone(), "the slices".to_string())];
         pairs.push((net.clone(), "itself".to_string()));
         if let Some(fired) = explore(&composed, BUDGET.markings).map(|e| e.fired) {
             let kind = KINDS[pick % KINDS.len()];
-            if let Some(m) = mutant(kind, &net, &slices, &fired, pick / KINDS.len()) {
+            if let Some(m) = mutant(
+                kind,
+                &net,
+                &slices,
+                &distributed,
+                &fired,
+                pick / KINDS.len(),
+            ) {
                 if let Ok(c) = compose(&m.slices) {
                     pairs.push((c, format!("{kind:?} {}", m.site)));
                 }

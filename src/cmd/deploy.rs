@@ -175,7 +175,7 @@ async fn deploy(
         Ok(r) => r,
         Err(e) => return bad_input(&e.to_string()),
     };
-    let drones = slices.distributed.drones.clone();
+    let drones = slices.drones.clone();
     let missing = rollout
         .wait_for_agents(&drones, Duration::from_secs_f64(args.wait))
         .await;

@@ -66,17 +66,18 @@ pub fn mutant(
     kind: Kind,
     net: &Net,
     s: &Slices,
+    distributed: &Net,
     fired: &BTreeSet<String>,
     pick: usize,
 ) -> Option<Mutant> {
     let at = Sites { fired, pick };
     let (site, slices, analog) = match kind {
-        Kind::DropBridge => drop_bridge(net, s, &at)?,
+        Kind::DropBridge => drop_bridge(net, s, distributed, &at)?,
         Kind::SwapActions => swap_actions(net, s, &at)?,
-        Kind::MoveAction => move_unit(net, s, &at, &|t| {
+        Kind::MoveAction => move_unit(net, s, distributed, &at, &|t| {
             matches!(t.kind, TransitionKind::ActionStart(_))
         })?,
-        Kind::MoveCondition => move_unit(net, s, &at, &|t| {
+        Kind::MoveCondition => move_unit(net, s, distributed, &at, &|t| {
             t.kind.action().is_none() && t.guard.as_ref().is_some_and(|g| !g.drones().is_empty())
         })?,
         Kind::FlipGuard => change_transition(net, s, &at, &FlipGuard)?,
@@ -109,7 +110,7 @@ impl Sites<'_> {
     }
 }
 
-fn drop_bridge(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
+fn drop_bridge(net: &Net, s: &Slices, d: &Net, at: &Sites) -> Option<Made> {
     let mut slices = s.slices.clone();
     let sites: Vec<(usize, usize)> = slices
         .iter()
@@ -144,7 +145,7 @@ fn drop_bridge(net: &Net, s: &Slices, at: &Sites) -> Option<Made> {
         .find(|b| b.id == out.id)?
         .inbox;
     let inbox = &s.slices[r].places[inbox as usize].id;
-    let analog = without_bridge(net, &s.distributed, sender, inbox)?;
+    let analog = without_bridge(net, d, sender, inbox)?;
     let site = format!("bridge {} from {} to {}", out.id, s.slices[i].drone, out.to);
     Some((site, slices, Some(analog)))
 }
@@ -319,10 +320,10 @@ fn action_refs(net: &Net) -> BTreeMap<u32, ActionRef> {
 fn move_unit(
     net: &Net,
     s: &Slices,
+    d: &Net,
     at: &Sites,
     what: &dyn Fn(&Transition) -> bool,
 ) -> Option<Made> {
-    let d = &s.distributed;
     let sites: Vec<_> = d
         .transitions()
         .filter(|(_, t)| what(t) && at.fired.contains(t.id.as_str()))
