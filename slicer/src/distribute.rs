@@ -108,28 +108,25 @@ pub fn slice_as(net: &Net, identity: &str) -> Result<Slices, SliceError> {
 /// the slicer: [`slice`] frees the distributed net once it is cut.
 pub fn slice_distributed(net: &Net) -> Result<(Slices, Net), SliceError> {
     let distributed = distribute(net)?;
-    let identity = net_id(net);
-    let slices = Slices {
-        mission: net.name.clone(),
-        slices: cut_along_owners(&distributed, &identity),
-        mission_id: identity,
-        drones: net.drones.clone(),
-        profiles: net.profiles.clone(),
-    };
+    let slices = cut_slices(net, &distributed, net_id(net));
     Ok((slices, distributed))
 }
 
 /// [`slice_as`], asking for the identity only when the slices are cut.
 fn slice_under(net: &Net, identity: impl FnOnce() -> String) -> Result<Slices, SliceError> {
     let distributed = distribute(net)?;
-    let identity = identity();
-    Ok(Slices {
+    Ok(cut_slices(net, &distributed, identity()))
+}
+
+/// The slices of `net`, cut from its distributed net under `identity`.
+fn cut_slices(net: &Net, distributed: &Net, identity: String) -> Slices {
+    Slices {
         mission: net.name.clone(),
-        slices: cut_along_owners(&distributed, &identity),
+        slices: cut_along_owners(distributed, &identity),
         mission_id: identity,
         drones: net.drones.clone(),
         profiles: net.profiles.clone(),
-    })
+    }
 }
 
 /// The distributed net: `net` partitioned among its owners, bundled, every
