@@ -45,6 +45,10 @@ pub struct FleetRun {
     pub drone_private_max_kib: u64,
     pub drone_private_median_kib: u64,
     pub gcs_private_kib: u64,
+    /// The ground station's largest resident set once the mission has
+    /// started, sampled likewise: what it holds while the fleet flies,
+    /// after the compile and the check are done with (0: not measured).
+    pub gcs_flying_kib: u64,
     /// Peak proportional set (the resident set with each shared page
     /// divided among the processes that map it: what each process adds
     /// to the machine), sampled likewise: largest drone, median drone.
@@ -121,10 +125,10 @@ fn worker(pid: u32, timed: bool) -> Option<u32> {
         .ok()
 }
 
-/// Private memory of a running process, in KiB.
+/// Fields of a running process's `/proc/PID/status`, in KiB.
 #[cfg(target_os = "linux")]
-fn private_kib(pid: u32) -> Option<u64> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
+fn status_kib(pid: u32, names: &[&str]) -> Vec<Option<u64>> {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
     let field = |name: &str| -> Option<u64> {
         status
             .lines()
@@ -134,7 +138,22 @@ fn private_kib(pid: u32) -> Option<u64> {
             .parse()
             .ok()
     };
-    Some(field("RssAnon:")? + field("RssShmem:").unwrap_or(0))
+    names.iter().map(|n| field(n)).collect()
+}
+
+/// Private memory of a running process, in KiB.
+#[cfg(target_os = "linux")]
+fn private_kib(pid: u32) -> Option<u64> {
+    match status_kib(pid, &["RssAnon:", "RssShmem:"])[..] {
+        [anon, shmem] => Some(anon? + shmem.unwrap_or(0)),
+        _ => None,
+    }
+}
+
+/// Resident set of a running process, in KiB.
+#[cfg(target_os = "linux")]
+fn resident_kib(pid: u32) -> Option<u64> {
+    status_kib(pid, &["VmRSS:"])[0]
 }
 
 #[cfg(not(target_os = "linux"))]
@@ -144,6 +163,11 @@ fn worker(_pid: u32, _timed: bool) -> Option<u32> {
 
 #[cfg(not(target_os = "linux"))]
 fn private_kib(_pid: u32) -> Option<u64> {
+    None
+}
+
+#[cfg(not(target_os = "linux"))]
+fn resident_kib(_pid: u32) -> Option<u64> {
     None
 }
 
@@ -312,6 +336,7 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
     let mut private = vec![0u64; peers.0.len()];
     let mut pss = vec![0u64; peers.0.len()];
     let mut workers: Vec<Option<u32>> = vec![None; peers.0.len()];
+    let mut gcs_flying = 0u64;
     let mut sampled = Instant::now() - SAMPLE;
     while launched.elapsed() < LIMIT {
         if sampled.elapsed() >= SAMPLE {
@@ -332,6 +357,10 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
                 if let Some(kib) = w.and_then(pss_kib) {
                     *shared = (*shared).max(kib);
                 }
+            }
+            // The ground station is the last process.
+            if let (Some(_), Some(Some(gcs))) = (to_start, workers.last()) {
+                gcs_flying = gcs_flying.max(resident_kib(*gcs).unwrap_or(0));
             }
         }
         if to_start.is_none()
@@ -378,6 +407,7 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         drone_private_max_kib: private.last().copied().unwrap_or(0),
         drone_private_median_kib: private.get(private.len() / 2).copied().unwrap_or(0),
         gcs_private_kib,
+        gcs_flying_kib: gcs_flying,
         drones,
         to_start,
         to_end,

@@ -710,6 +710,10 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
         )
         .goal(format!("≤ {} MB", goal::FLEET_PROCESS_MB), private_met),
         row(
+            format!("{what}: the ground station's resident set while the fleet flies (sampled from the mission's start; its peak above is the compile and the check)"),
+            mem(f.gcs_flying_kib),
+        ),
+        row(
             format!("{what}: peak proportional memory per drone (sampled; shared pages divided among the processes that map them)"),
             format!(
                 "largest {}, median {}",
