@@ -14,6 +14,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::process::status_kib;
+
 /// Simulated seconds per real second.
 const SPEED: &str = "50";
 /// How long the ground station waits for every drone to be ready.
@@ -125,35 +127,15 @@ fn worker(pid: u32, timed: bool) -> Option<u32> {
         .ok()
 }
 
-/// Fields of a running process's `/proc/PID/status`, in KiB.
+/// A running process's `/proc/PID/status`.
 #[cfg(target_os = "linux")]
-fn status_kib(pid: u32, names: &[&str]) -> Vec<Option<u64>> {
-    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
-    let field = |name: &str| -> Option<u64> {
-        status
-            .lines()
-            .find_map(|l| l.strip_prefix(name))?
-            .split_whitespace()
-            .next()?
-            .parse()
-            .ok()
-    };
-    names.iter().map(|n| field(n)).collect()
+fn status(pid: u32) -> Option<String> {
+    std::fs::read_to_string(format!("/proc/{pid}/status")).ok()
 }
 
-/// Private memory of a running process, in KiB.
-#[cfg(target_os = "linux")]
-fn private_kib(pid: u32) -> Option<u64> {
-    match status_kib(pid, &["RssAnon:", "RssShmem:"])[..] {
-        [anon, shmem] => Some(anon? + shmem.unwrap_or(0)),
-        _ => None,
-    }
-}
-
-/// Resident set of a running process, in KiB.
-#[cfg(target_os = "linux")]
-fn resident_kib(pid: u32) -> Option<u64> {
-    status_kib(pid, &["VmRSS:"])[0]
+/// Private memory of a process, in KiB, from its status.
+fn private_kib(status: &str) -> Option<u64> {
+    Some(status_kib(status, "RssAnon:")? + status_kib(status, "RssShmem:").unwrap_or(0))
 }
 
 #[cfg(not(target_os = "linux"))]
@@ -162,12 +144,7 @@ fn worker(_pid: u32, _timed: bool) -> Option<u32> {
 }
 
 #[cfg(not(target_os = "linux"))]
-fn private_kib(_pid: u32) -> Option<u64> {
-    None
-}
-
-#[cfg(not(target_os = "linux"))]
-fn resident_kib(_pid: u32) -> Option<u64> {
+fn status(_pid: u32) -> Option<String> {
     None
 }
 
@@ -341,26 +318,29 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
     while launched.elapsed() < LIMIT {
         if sampled.elapsed() >= SAMPLE {
             sampled = Instant::now();
-            for (((c, w), p), shared) in peers
+            // The ground station is the last process.
+            let gcs = peers.0.len() - 1;
+            for (i, (((c, w), p), shared)) in peers
                 .0
                 .iter()
                 .zip(workers.iter_mut())
                 .zip(private.iter_mut())
                 .zip(pss.iter_mut())
+                .enumerate()
             {
                 if w.is_none() {
                     *w = worker(c.id(), timed);
                 }
-                if let Some(kib) = w.and_then(private_kib) {
-                    *p = (*p).max(kib);
+                if let Some(status) = w.and_then(status) {
+                    *p = (*p).max(private_kib(&status).unwrap_or(0));
+                    if i == gcs && to_start.is_some() {
+                        let kib = status_kib(&status, "VmRSS:").unwrap_or(0);
+                        gcs_flying = gcs_flying.max(kib);
+                    }
                 }
                 if let Some(kib) = w.and_then(pss_kib) {
                     *shared = (*shared).max(kib);
                 }
-            }
-            // The ground station is the last process.
-            if let (Some(_), Some(Some(gcs))) = (to_start, workers.last()) {
-                gcs_flying = gcs_flying.max(resident_kib(*gcs).unwrap_or(0));
             }
         }
         if to_start.is_none()

@@ -17,8 +17,7 @@ use crate::workload;
 /// much as the report that started it.
 fn own_peak_kib() -> Option<u64> {
     let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    line.split_whitespace().nth(1)?.parse().ok()
+    crate::process::status_kib(&status, "VmHWM:")
 }
 
 /// The child side: do one thing, say "ready" (with its peak memory where the

@@ -156,3 +156,15 @@ fn gofmt_peak_kib(file: &Path) -> Option<u64> {
     let stderr = String::from_utf8_lossy(&out.stderr);
     stderr.lines().last()?.trim().parse().ok()
 }
+
+/// A field of a process's `/proc/PID/status` (`VmHWM:`, `RssAnon:`...),
+/// in KiB.
+pub fn status_kib(status: &str, name: &str) -> Option<u64> {
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix(name))?
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}

@@ -152,7 +152,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(f) => f,
         Err(message) => return bad_input(&message),
     };
-    give_back_freed_memory();
+    mission::give_back_freed_memory();
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match eamos_rollout::trusted_key(&fleet) {
@@ -278,19 +278,6 @@ enum Part {
     Whole(Slices),
     /// One peer's slice.
     One(Slice),
-}
-
-/// Returns to the system the heap that the compile and the check freed.
-/// glibc keeps freed memory for the process to reuse, and the flight
-/// reuses little of it: a ground station of 250 drones held the check's
-/// 15 MB resident for the whole flight.
-fn give_back_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: `malloc_trim` only hands free pages of the heap back to the
-    // system; it may be called at any time, from any thread.
-    unsafe {
-        libc::malloc_trim(0);
-    }
 }
 
 /// Reads what `args` name; on bad input, the exit status, once the reason
