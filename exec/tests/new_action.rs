@@ -72,7 +72,7 @@ fn the_front_end_checks_a_declared_action_s_arity() {
     );
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[tokio::test(start_paused = true)]
 async fn a_mission_with_actions_declared_only_in_toml_flies_in_the_simulator() {
     let profiles = sprayer();
     let file = SourceFile::new("spray.go", MISSION);
@@ -119,7 +119,8 @@ async fn a_mission_with_actions_declared_only_in_toml_flies_in_the_simulator() {
             .unwrap_or_else(|| panic!("no {event} of {name} in {log:?}"))
     };
     let sprayed = at("end", "Spray") - at("start", "Spray");
-    assert!((4.0..4.2).contains(&sprayed), "Spray(4) took {sprayed} s");
+    // Paused time: it ends at the first step (0.02 s) at or after 4 s.
+    assert!((4.0..4.02).contains(&sprayed), "Spray(4) took {sprayed} s");
     let hopped = at("end", "Hop") - at("start", "Hop");
     assert!(hopped >= 3.0 / 5.0, "Hop(3) flew for {hopped} s");
     let path = &report.trajectories["D1"];
@@ -129,7 +130,7 @@ async fn a_mission_with_actions_declared_only_in_toml_flies_in_the_simulator() {
     );
 }
 
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[tokio::test(start_paused = true)]
 async fn the_simulator_refuses_a_declared_action_in_a_flight_state_its_profile_forbids() {
     let profile = sprayer().get("Sprayer").unwrap().clone();
     let fleet = SimFleet::start(SimConfig {
@@ -160,7 +161,8 @@ async fn the_simulator_refuses_a_declared_action_in_a_flight_state_its_profile_f
     let t0 = clock.now();
     run("Spray", &[2.5]).await.unwrap();
     let took = clock.now() - t0;
-    assert!((2.5..2.6).contains(&took), "Spray(2.5) took {took} s");
+    // Paused time: the action ends at the first step (0.02 s) at or after 2.5 s.
+    assert!((2.5..2.52).contains(&took), "Spray(2.5) took {took} s");
     // A drone of the built-in profile does not offer it.
     let plain = fleet
         .add_drone(
