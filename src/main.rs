@@ -34,6 +34,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    quiet_library_backtraces();
     let cli = Cli::parse();
     match cli.command {
         Command::Build(args) => cmd::build::run(args),
@@ -50,5 +51,18 @@ fn main() -> ExitCode {
         Command::Gen(args) => cmd::gen::run(args),
         Command::BenchReport(args) => cmd::bench_report::run(args),
         Command::Lsp(args) => cmd::lsp::run(args),
+    }
+}
+
+/// Keeps `RUST_BACKTRACE` for panics only, unless the user set
+/// `RUST_LIB_BACKTRACE` too. zenoh builds an error, and with
+/// `RUST_BACKTRACE=1` a backtrace, for each link it closes and handles it
+/// itself: walking the stack read in a megabyte of unwinding tables, the
+/// largest part of a drone's peak memory at the end of a flight. Nothing
+/// of eamos ever prints a library's backtrace.
+fn quiet_library_backtraces() {
+    if std::env::var_os("RUST_LIB_BACKTRACE").is_none() {
+        // Sound here: no other thread exists yet to read the environment.
+        std::env::set_var("RUST_LIB_BACKTRACE", "0");
     }
 }

@@ -22,6 +22,7 @@ use tokio::sync::{mpsc, watch};
 use eamos_petri::net::Colour;
 
 pub mod faulty;
+pub mod following;
 pub mod inproc;
 pub mod observe;
 pub mod publish;

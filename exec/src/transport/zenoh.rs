@@ -38,6 +38,7 @@ use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::sample::{Sample, SampleKind};
 use zenoh::Session;
 
+use super::following::Following;
 use super::{Endpoint, Frame, FrameHandler, Link, PeerId, TelemetryFrame, TransportError};
 
 pub use eamos_fleet::zenoh::{TlsFiles, ZenohOptions};
@@ -298,8 +299,12 @@ pub async fn open_following(
     let seen = alive.clone();
     let mission_owned = mission.to_string();
     let me_owned = me.to_string();
+    let following = Arc::new(Following::new(me, follow));
+    let admitted = following.clone();
     let on_alive = move |sample: Sample| {
-        let Some(peer) = alive_peer(&mission_owned, sample.key_expr().as_str()) else {
+        let Some(peer) =
+            alive_peer(&mission_owned, sample.key_expr().as_str()).filter(|p| admitted.admits(p))
+        else {
             return;
         };
         let mut peers = seen.peers.lock().expect("alive lock");
@@ -315,7 +320,8 @@ pub async fn open_following(
         presence_tx.send_replace(peers.iter().cloned().collect());
         seen.changed.notify_waiters();
     };
-    let keys = followed(me, follow)
+    let keys = following
+        .chunks()
         .into_iter()
         .map(|who| format!("eamos/{mission}/{who}/alive"));
     let alive_subs = follow_tokens(&session, keys, on_alive).await?;
@@ -324,7 +330,7 @@ pub async fn open_following(
         .declare_token(key(mission, me, "alive"))
         .await
         .map_err(|e| TransportError::Open(e.to_string()))?;
-    let version = announce_version(&session, mission, me, follow, alive.clone()).await?;
+    let version = announce_version(&session, mission, me, following, alive.clone()).await?;
     let state: Arc<Mutex<BTreeMap<&'static str, Vec<u8>>>> = Arc::default();
     let state_queryable = {
         let (state, at) = (state.clone(), key(mission, me, "state"));
@@ -367,17 +373,6 @@ pub async fn open_following(
         frames,
         telemetry,
     })
-}
-
-/// The key chunks of the peers `me` follows: each of `follow` and itself,
-/// or `*`.
-fn followed<'a>(me: &'a str, follow: Option<&'a [PeerId]>) -> Vec<&'a str> {
-    match follow {
-        Some(peers) => std::iter::once(me)
-            .chain(peers.iter().map(String::as_str).filter(|p| *p != me))
-            .collect(),
-        None => vec!["*"],
-    }
 }
 
 /// Subscribes `on` to the liveliness tokens on each of `keys`, those up
@@ -717,7 +712,7 @@ async fn announce_version(
     session: &Session,
     mission: &str,
     me: &str,
-    follow: Option<&[PeerId]>,
+    following: Arc<Following>,
     alive: Arc<Alive>,
 ) -> Result<Option<(LivelinessToken, Vec<Subscriber<()>>)>, TransportError> {
     let Some((name, version)) = eamos_fleet::identity::split(mission) else {
@@ -726,6 +721,7 @@ async fn announce_version(
     let ours = version.to_string();
     let prefix = format!("eamos/{name}/");
     let mission_name = name.to_string();
+    let admitted = following.clone();
     let on_version = move |sample: Sample| {
         let k = sample.key_expr().as_str();
         let Some((peer, theirs)) = k
@@ -734,7 +730,7 @@ async fn announce_version(
         else {
             return;
         };
-        if theirs == ours {
+        if theirs == ours || !admitted.admits(peer) {
             return;
         }
         let mut foreign = alive.foreign.lock().expect("alive lock");
@@ -755,7 +751,8 @@ async fn announce_version(
         }
         alive.changed.notify_waiters();
     };
-    let keys = followed(me, follow)
+    let keys = following
+        .chunks()
         .into_iter()
         .map(|who| format!("eamos/{name}/{who}/version/*"));
     let subs = follow_tokens(session, keys, on_version).await?;
@@ -849,6 +846,7 @@ mod version_tests {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::transport::following::ONE_BY_ONE;
     use crate::transport::reliable::{Bridges, RetransmitPolicy};
     use crate::transport::BridgeMessage;
 
@@ -1095,8 +1093,20 @@ mod tests {
     /// of the rest of the fleet, however many they are.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_peer_that_follows_its_neighbours_sees_them_come_and_go_and_no_one_else() {
+        follows_d1_among(0, "ZenohTest-follow").await;
+    }
+
+    /// Past [`ONE_BY_ONE`] neighbours a drone hears every peer's token
+    /// through one subscriber: it still keeps only its neighbours'.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_peer_that_follows_many_neighbours_still_sees_no_one_else() {
+        follows_d1_among(ONE_BY_ONE, "ZenohTest-follow-many").await;
+    }
+
+    /// D3 follows D1 and `absent` neighbours never up; D2 is up and is not
+    /// one of them.
+    async fn follows_d1_among(absent: usize, mission: &str) {
         let ports = [free_port(), free_port(), free_port()];
-        let mission = "ZenohTest-follow";
         let mesh = |k: usize| ZenohOptions {
             mode: Default::default(),
             listen: vec![tcp(ports[k])],
@@ -1106,7 +1116,10 @@ mod tests {
         };
         let d1 = open(mission, "D1", &[], &mesh(0)).await.unwrap();
         let _d2 = open(mission, "D2", &[], &mesh(1)).await.unwrap();
-        let d3 = open_following(mission, "D3", &[], Some(&["D1".into()]), &mesh(2))
+        let neighbours: Vec<PeerId> = std::iter::once("D1".to_string())
+            .chain((1..=absent).map(|k| format!("F{k}")))
+            .collect();
+        let d3 = open_following(mission, "D3", &[], Some(&neighbours), &mesh(2))
             .await
             .unwrap();
         let all = ["D2".to_string(), "D3".to_string()];
