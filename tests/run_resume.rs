@@ -151,7 +151,7 @@ fn slices(mission: &str) -> eamos_slicer::Slices {
         eamos_lang::SourceFile::new(mission, std::fs::read_to_string(paper(mission)).unwrap());
     let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
-    eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
+    eamos_slicer::slice(eamos_petri::compile(&m, &profiles)).unwrap()
 }
 
 /// Starts every drone, then the ground station, all journaling.

@@ -13,7 +13,6 @@ use eamos_exec::transport::{Endpoint, GCS};
 use eamos_gen::{Constructs, Options, Size};
 use eamos_lang::{hir, SourceFile};
 use eamos_mid::{Adapter, NullSink, SimConfig, SimDroneSpec, SimFleet, Uniform, Vec3};
-use eamos_petri::Net;
 use eamos_profile::ProfileTable;
 use eamos_slicer::{Slice, Slices};
 
@@ -85,12 +84,13 @@ impl MissionSpec {
     }
 }
 
-/// A mission through every stage of compilation. The checked mission is
-/// not kept: nothing after the net reads it, and freed before the slicer
-/// runs, its memory (a quarter of the compile's peak on the stress mission)
-/// is reused instead of added to.
+/// A mission through every stage of compilation: its slices. Neither the
+/// checked mission nor the net is kept: each is freed once the next stage
+/// has what it needs from it (the mission once the net is built, a
+/// quarter of the compile's peak on the stress mission; the net once
+/// distributed, before the cut), so that its memory is reused instead of
+/// added to, as `eamos build` does.
 pub struct Compiled {
-    pub net: Net,
     pub slices: Slices,
 }
 
@@ -106,8 +106,8 @@ pub fn compile(source: &SourceFile, profiles: &ProfileTable) -> Result<Compiled,
     let mission = front_end(source, profiles)?;
     let net = eamos_petri::compile(&mission, profiles);
     drop(mission);
-    let slices = eamos_slicer::slice(&net).map_err(|e| e.to_string())?;
-    Ok(Compiled { net, slices })
+    let slices = eamos_slicer::slice(net).map_err(|e| e.to_string())?;
+    Ok(Compiled { slices })
 }
 
 /// The drone slice with the most places and transitions.

@@ -140,7 +140,7 @@ mod tests {
     /// Slices named by their net alone, as the slicer cuts them without a
     /// fleet.
     fn slices(text: &str) -> Slices {
-        eamos_slicer::slice(&net(text)).expect("the mission slices")
+        eamos_slicer::slice(net(text)).expect("the mission slices")
     }
 
     const MISSION: &str = "package M\n\nvar D1 Quadcopter\nvar D2 Quadcopter\n\nfunc main() {\n\tD1.Takeoff(2)\n\tD2.Takeoff(2)\n}\n";

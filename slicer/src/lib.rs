@@ -138,7 +138,9 @@ pub mod wire;
 mod work;
 
 pub use codec::MAGIC;
-pub use distribute::{cut_along_owners, net_id, slice, slice_as, slice_distributed, Slices};
+pub use distribute::{
+    cut_along_owners, net_id, slice, slice_as, slice_distributed, Handed, Slices,
+};
 pub use error::{DecodeError, SliceError};
 pub use output::{write_dir, Written};
 pub use slice::{BridgeId, BridgeIn, BridgeOut, Slice, SliceTransition, GCS};

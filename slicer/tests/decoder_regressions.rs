@@ -7,7 +7,7 @@ use eamos_petri::net::{PlaceKind, TransitionKind};
 use eamos_slicer::{slice, DecodeError, Slice};
 
 fn drone2_of_experiment_b() -> Slice {
-    slice(&common::paper_net("experiment_b"))
+    slice(common::paper_net("experiment_b"))
         .expect("the paper mission slices")
         .get("Drone2")
         .expect("Drone2 has a slice")

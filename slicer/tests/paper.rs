@@ -6,10 +6,10 @@ mod common;
 use eamos_slicer::bound::lower_bound;
 use eamos_slicer::compose::compose;
 use eamos_slicer::equivalence::{compare, Budget, Verdict};
-use eamos_slicer::{slice, DecodeError, Slice, Slices, Statistics};
+use eamos_slicer::{slice, slice_as, DecodeError, Slice, Slices, Statistics};
 
 fn sliced(name: &str) -> Slices {
-    slice(&common::paper_net(name)).expect("paper missions slice")
+    slice(common::paper_net(name)).expect("paper missions slice")
 }
 
 /// (drone, bridges in, bridges out) of a slicing.
@@ -295,5 +295,36 @@ fn the_files_of_a_slicing_are_written_one_set_per_drone() {
         let dot = std::fs::read_to_string(&w.dot).unwrap();
         assert!(dot.starts_with(&format!("digraph \"net-{}\"", w.drone)));
         assert!(dot.contains("style=dashed"), "bridges are dashed");
+    }
+}
+
+/// The slicer frees a net handed over to it once distributed; what it cuts
+/// is the same as from the net lent, with or without an identity.
+#[test]
+fn a_net_handed_over_to_the_slicer_is_cut_as_the_same_net_lent() {
+    for name in common::PAPER {
+        let net = common::paper_net(name);
+        let lent = slice(&net).expect("paper missions slice");
+        let given = slice(net.clone()).expect("paper missions slice");
+        assert_eq!(given.slices, lent.slices, "{name}");
+        assert_eq!(
+            (
+                &given.mission,
+                &given.mission_id,
+                &given.drones,
+                &given.profiles
+            ),
+            (
+                &lent.mission,
+                &lent.mission_id,
+                &lent.drones,
+                &lent.profiles
+            ),
+            "{name}"
+        );
+        let lent = slice_as(&net, "Mission-1").expect("paper missions slice");
+        let given = slice_as(net, "Mission-1").expect("paper missions slice");
+        assert_eq!(given.slices, lent.slices, "{name}");
+        assert_eq!(given.mission_id, "Mission-1");
     }
 }

@@ -76,7 +76,7 @@ fn every_mission_of_the_repository_round_trips_through_both_forms() {
 }
 
 fn experiment_d_with_a_condition() -> (Slice, usize) {
-    let s = slice(&common::paper_net("experiment_d")).unwrap();
+    let s = slice(common::paper_net("experiment_d")).unwrap();
     s.slices
         .iter()
         .find_map(|s| {

@@ -106,59 +106,36 @@ pub fn run(args: Args) -> ExitCode {
             // reuses its memory instead of adding to it.
             drop(mission);
             let net_stats = eamos_petri::stats::stats(&net);
+            // The net's exports are written before the slicer is handed the
+            // net, which it frees once distributed (see `Handed`).
+            let written = match &args.out {
+                None => Vec::new(),
+                Some(dir) => match write_net(&net, &source, dir, args.pnml_final_loop) {
+                    Ok(written) => written,
+                    Err(message) => return failed(&args, &source, &message),
+                },
+            };
             let bound =
                 eamos_fleet::Fleet::load_or_default(args.fleet.as_deref(), &net.name, &net.drones)
                     .map_err(|e| e.to_string())
                     .and_then(|fleet| {
                         let net_id = eamos_slicer::net_id(&net);
                         let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
-                        eamos_slicer::slice_as(&net, id.as_str())
+                        eamos_slicer::slice_as(net, id.as_str())
                             .map(|slices| (slices, net_id))
                             .map_err(|e| format!("cannot slice the net of {}: {e}", source.name))
                     });
             let (slices, net_id) = match bound {
                 Ok(s) => s,
-                Err(message) => {
-                    if args.json {
-                        println!("{}", json!({ "file": source.name, "error": message }));
-                    }
-                    eprintln!("error: {message}");
-                    return ExitCode::from(2);
-                }
+                Err(message) => return failed(&args, &source, &message),
             };
             let slice_stats = eamos_slicer::Statistics::of(&slices);
-            let (written, slices_written) = match &args.out {
-                None => (Vec::new(), Vec::new()),
-                Some(dir) => {
-                    match write_net(&net, &source, dir, args.pnml_final_loop).and_then(|w| {
-                        let files = eamos_slicer::write_dir(&slices, dir).map_err(|e| {
-                            format!("cannot write slices into {}: {e}", dir.display())
-                        })?;
-                        let mut s: Vec<PathBuf> = files
-                            .into_iter()
-                            .flat_map(|f| [f.json, f.binary, f.dot])
-                            .collect();
-                        s.push(super::slices::write_manifest(
-                            dir,
-                            &super::slices::Manifest {
-                                mission: net.name.clone(),
-                                net: net_id.clone(),
-                                drones: net.drones.clone(),
-                                identity: slices.mission_id.clone(),
-                            },
-                        )?);
-                        Ok((w, s))
-                    }) {
-                        Ok(w) => w,
-                        Err(message) => {
-                            if args.json {
-                                println!("{}", json!({ "file": source.name, "error": message }));
-                            }
-                            eprintln!("error: {message}");
-                            return ExitCode::from(2);
-                        }
-                    }
-                }
+            let slices_written = match &args.out {
+                None => Vec::new(),
+                Some(dir) => match write_slices(&slices, &net_id, dir) {
+                    Ok(written) => written,
+                    Err(message) => return failed(&args, &source, &message),
+                },
             };
             if args.json {
                 let records: Vec<_> = warnings.iter().map(|d| d.record(&source)).collect();
@@ -192,6 +169,41 @@ pub fn run(args: Args) -> ExitCode {
         }
         Err(diags) => bad_mission(&args, &source, &diags, style),
     }
+}
+
+/// Writes each peer's slice into `dir` and the manifest naming the mission
+/// they cut; the paths written.
+fn write_slices(
+    slices: &eamos_slicer::Slices,
+    net_id: &str,
+    dir: &std::path::Path,
+) -> Result<Vec<PathBuf>, String> {
+    let files = eamos_slicer::write_dir(slices, dir)
+        .map_err(|e| format!("cannot write slices into {}: {e}", dir.display()))?;
+    let mut written: Vec<PathBuf> = files
+        .into_iter()
+        .flat_map(|f| [f.json, f.binary, f.dot])
+        .collect();
+    written.push(super::slices::write_manifest(
+        dir,
+        &super::slices::Manifest {
+            mission: slices.mission.clone(),
+            net: net_id.to_string(),
+            drones: slices.drones.clone(),
+            identity: slices.mission_id.clone(),
+        },
+    )?);
+    Ok(written)
+}
+
+/// A mission compiled that cannot be written or sliced: the message on
+/// standard error (and, with `--json`, on standard output), exit status 2.
+fn failed(args: &Args, source: &SourceFile, message: &str) -> ExitCode {
+    if args.json {
+        println!("{}", json!({ "file": source.name, "error": message }));
+    }
+    eprintln!("error: {message}");
+    ExitCode::from(2)
 }
 
 /// A mission that does not compile (or cannot even be decoded): its

@@ -223,7 +223,7 @@ pub(crate) fn slices(mission: &str) -> eamos_slicer::Slices {
     let file = eamos_lang::SourceFile::new(mission, std::fs::read_to_string(path).unwrap());
     let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
-    eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
+    eamos_slicer::slice(eamos_petri::compile(&m, &profiles)).unwrap()
 }
 
 fn transition(slice: &Slice, kind: &str, name: &str) -> (String, u32) {
@@ -434,7 +434,7 @@ pub(crate) fn pausing() -> eamos_slicer::Slices {
     let file = eamos_lang::SourceFile::new("pausing.go", PAUSING);
     let profiles = eamos_profile::builtin();
     let m = eamos_lang::compile(&file, &profiles).unwrap().mission;
-    eamos_slicer::slice(&eamos_petri::compile(&m, &profiles)).unwrap()
+    eamos_slicer::slice(eamos_petri::compile(&m, &profiles)).unwrap()
 }
 
 fn pause_transition(slice: &Slice) -> String {
