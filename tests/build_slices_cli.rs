@@ -87,3 +87,24 @@ fn build_json_carries_the_slice_statistics_and_the_slice_files() {
         .iter()
         .any(|p| p.as_str().unwrap().ends_with("slices.json")));
 }
+
+/// A fleet file that cannot be read stops the build before it writes
+/// anything: no net, no slices from a mission cut for no fleet.
+#[test]
+fn build_with_a_bad_fleet_file_names_it_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let fleet = dir.path().join("fleet.toml");
+    std::fs::write(&fleet, "[zenoh\n").unwrap();
+    let out = dir.path().join("out");
+    eamos()
+        .arg("build")
+        .arg(paper("experiment_c.go"))
+        .arg("--fleet")
+        .arg(&fleet)
+        .arg("-o")
+        .arg(&out)
+        .assert()
+        .code(2)
+        .stderr(predicate::str::contains("fleet.toml"));
+    assert!(!out.exists(), "nothing is written");
+}

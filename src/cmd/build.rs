@@ -106,6 +106,12 @@ pub fn run(args: Args) -> ExitCode {
             // reuses its memory instead of adding to it.
             drop(mission);
             let net_stats = eamos_petri::stats::stats(&net);
+            let fleet =
+                eamos_fleet::Fleet::load_or_default(args.fleet.as_deref(), &net.name, &net.drones);
+            let fleet = match fleet {
+                Ok(fleet) => fleet,
+                Err(e) => return failed(&args, &source, &e.to_string()),
+            };
             // The net's exports are written before the slicer is handed the
             // net, which it frees once distributed (see `Handed`).
             let written = match &args.out {
@@ -115,19 +121,14 @@ pub fn run(args: Args) -> ExitCode {
                     Err(message) => return failed(&args, &source, &message),
                 },
             };
-            let bound =
-                eamos_fleet::Fleet::load_or_default(args.fleet.as_deref(), &net.name, &net.drones)
-                    .map_err(|e| e.to_string())
-                    .and_then(|fleet| {
-                        let net_id = eamos_slicer::net_id(&net);
-                        let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
-                        eamos_slicer::slice_as(net, id.as_str())
-                            .map(|slices| (slices, net_id))
-                            .map_err(|e| format!("cannot slice the net of {}: {e}", source.name))
-                    });
-            let (slices, net_id) = match bound {
-                Ok(s) => s,
-                Err(message) => return failed(&args, &source, &message),
+            let net_id = eamos_slicer::net_id(&net);
+            let id = MissionId::new(&net.name, &net_id, &fleet_version(&fleet));
+            let slices = match eamos_slicer::slice_as(net, id.as_str()) {
+                Ok(slices) => slices,
+                Err(e) => {
+                    let message = format!("cannot slice the net of {}: {e}", source.name);
+                    return failed(&args, &source, &message);
+                }
             };
             let slice_stats = eamos_slicer::Statistics::of(&slices);
             let slices_written = match &args.out {
