@@ -61,8 +61,26 @@ fn main() -> ExitCode {
 /// largest part of a drone's peak memory at the end of a flight. Nothing
 /// of eamos ever prints a library's backtrace.
 fn quiet_library_backtraces() {
-    if std::env::var_os("RUST_LIB_BACKTRACE").is_none() {
+    if let Some(value) = library_backtraces(std::env::var_os("RUST_LIB_BACKTRACE")) {
         // Sound here: no other thread exists yet to read the environment.
-        std::env::set_var("RUST_LIB_BACKTRACE", "0");
+        std::env::set_var("RUST_LIB_BACKTRACE", value);
+    }
+}
+
+/// What `RUST_LIB_BACKTRACE` is set to, given the user's own: none where
+/// the user chose.
+fn library_backtraces(user: Option<std::ffi::OsString>) -> Option<&'static str> {
+    user.is_none().then_some("0")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::library_backtraces;
+
+    #[test]
+    fn library_backtraces_are_off_unless_the_user_chose() {
+        assert_eq!(library_backtraces(None), Some("0"));
+        assert_eq!(library_backtraces(Some("1".into())), None);
+        assert_eq!(library_backtraces(Some("0".into())), None);
     }
 }
