@@ -204,3 +204,80 @@ fn a_router_the_fleet_does_not_name_or_whose_port_is_taken_is_bad_input() {
         "{err}"
     );
 }
+
+/// Runs `cmd` to its end, or fails the test if it is still running after
+/// a minute (it hangs): what it wrote on stderr, and its exit status.
+fn ended(cmd: &mut Command) -> (Option<i32>, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let err = dir.path().join("stderr");
+    let mut child = Processes(vec![cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(std::fs::File::create(&err).unwrap()))
+        .spawn()
+        .unwrap()]);
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let status = loop {
+        if let Some(s) = child.0[0].try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "still waiting after a minute");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    (status.code(), std::fs::read_to_string(err).unwrap())
+}
+
+/// A fleet file whose one router nobody runs.
+fn fleet_without_its_router(dir: &Path) -> (PathBuf, String) {
+    let router = format!("tcp/127.0.0.1:{}", free_port());
+    let fleet = dir.join("fleet.toml");
+    std::fs::write(&fleet, format!("[zenoh]\nrouters = [\"{router}\"]\n")).unwrap();
+    (fleet, router)
+}
+
+#[test]
+fn a_ground_station_whose_routers_never_answer_says_so_within_its_start_up_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let (fleet, router) = fleet_without_its_router(dir.path());
+    let (status, err) = ended(
+        eamos()
+            .arg("run")
+            .arg(experiment_c())
+            .arg("--fleet")
+            .arg(&fleet)
+            .args(["--gcs", "--startup-timeout", "1", "--out"])
+            .arg(dir.path().join("logs")),
+    );
+    assert_eq!(status, Some(2), "{err}");
+    assert!(
+        err.contains(&format!(
+            "GCS reached none of the fleet's routers ({router}) within 1s"
+        )),
+        "{err}"
+    );
+    assert!(err.contains("eamos router --fleet"), "{err}");
+}
+
+#[test]
+fn an_abort_whose_routers_never_answer_says_so_within_its_timeout() {
+    let dir = tempfile::tempdir().unwrap();
+    let (fleet, router) = fleet_without_its_router(dir.path());
+    let (status, err) = ended(
+        eamos()
+            .arg("abort")
+            .arg(experiment_c())
+            .arg("--fleet")
+            .arg(&fleet)
+            .args(["--timeout", "1"]),
+    );
+    assert_eq!(status, Some(2), "{err}");
+    assert!(
+        err.contains("cannot join the mission's network: abort-"),
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!(
+            "reached none of the fleet's routers ({router}) within 1s"
+        )),
+        "{err}"
+    );
+}

@@ -269,7 +269,8 @@ pub async fn broadcast(
     sealer: Option<&CommandSealer>,
     timeout: Duration,
 ) -> Result<AbortSent, TransportError> {
-    let endpoint = zenoh::open(&command.mission, me, &[], options).await?;
+    let opening = zenoh::open(&command.mission, me, &[], options);
+    let endpoint = zenoh::within(opening, me, options, timeout).await?;
     // Whoever is up within a short while: the others may be down for good.
     let up_wait = timeout.min(Duration::from_secs(3));
     let deadline = tokio::time::Instant::now() + up_wait;

@@ -389,14 +389,17 @@ fn open_logs(
     })
 }
 
-/// Opens the link of the peer that runs `slice`, one of `all`.
+/// Opens the link of the peer that runs `slice`, one of `all`. The ground
+/// station waits for the fleet's routers as long as it waits for its
+/// drones (the start-up timeout), then says it found none; a drone keeps
+/// waiting (it may be powered up before the ground network).
 async fn endpoint(
     slice: &Slice,
     all: &[String],
     fleet: &Fleet,
     transport: TransportKind,
     hub: &InProcessHub,
-    faults: Option<Faults>,
+    options: &RunOptions,
 ) -> Result<Endpoint, RunError> {
     let peer = slice.drone.as_str();
     let reads = slice.telemetry.clone();
@@ -407,21 +410,26 @@ async fn endpoint(
             // A drone follows only the peers it may wait on; the ground
             // station, every peer.
             let follow = (peer != GCS).then(|| crate::liveness::neighbours(slice));
-            zenoh::open_following(&slice.mission_id, peer, &reads, follow.as_deref(), &opts)
-                .await
-                .map_err(|e| match e {
-                    TransportError::PortTaken {
-                        peer, endpoints, ..
-                    } => TransportError::PortTaken {
-                        peer,
-                        endpoints,
-                        fleet: Some(all.len()),
-                    },
-                    e => e,
-                })?
+            let opening =
+                zenoh::open_following(&slice.mission_id, peer, &reads, follow.as_deref(), &opts);
+            let opened = if peer == GCS {
+                zenoh::within(opening, peer, &opts, options.startup_timeout).await
+            } else {
+                opening.await
+            };
+            opened.map_err(|e| match e {
+                TransportError::PortTaken {
+                    peer, endpoints, ..
+                } => TransportError::PortTaken {
+                    peer,
+                    endpoints,
+                    fleet: Some(all.len()),
+                },
+                e => e,
+            })?
         }
     };
-    if let Some(f) = faults {
+    if let Some(f) = options.faults {
         // Each peer's faults differ but follow from the one seed.
         let k = all.iter().position(|p| p == peer).unwrap_or(0) as u64;
         e.link = Arc::new(FaultyLink::new(
@@ -534,7 +542,7 @@ pub async fn run_fleet(
                 fleet,
                 options.transport,
                 &hub,
-                options.faults,
+                options,
             )
             .await
             .map(|e| partitioned(e, options))?,
@@ -673,14 +681,7 @@ pub async fn run_peer(
     );
     record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
-    let opening = endpoint(
-        slice,
-        &all,
-        fleet,
-        TransportKind::Zenoh,
-        &hub,
-        options.faults,
-    );
+    let opening = endpoint(slice, &all, fleet, TransportKind::Zenoh, &hub, options);
     let e = tokio::select! {
         e = opening => e.map(|e| partitioned(e, options))?,
         () = options.stop.cancelled() => {

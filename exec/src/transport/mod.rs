@@ -115,6 +115,12 @@ pub enum TransportError {
         /// The mission's number of peers, where known.
         fleet: Option<usize>,
     },
+    #[error("{peer} reached none of the fleet's routers ({}) within {waited:?}: start them first (`eamos router --fleet FLEET --router K` for each entry of the fleet file's `[zenoh] routers`), or check that this machine reaches them", .routers.join(", "))]
+    NoRouter {
+        peer: PeerId,
+        routers: Vec<String>,
+        waited: Duration,
+    },
     #[error("cannot send: {0}")]
     Send(String),
     #[error("cannot decode a frame: {0}")]

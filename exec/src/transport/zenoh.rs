@@ -126,8 +126,8 @@ pub fn config(options: &ZenohOptions) -> Result<zenoh::Config, TransportError> {
     if options.mode == eamos_fleet::Mode::Client {
         // A drone may start before its routers do: it keeps trying them
         // instead of giving up (zenoh's clients give up at once by
-        // default), and the ground station's start-up timeout says who
-        // never showed up.
+        // default). The ground station and `eamos abort` bound the wait
+        // (see `within`) and say which routers never answered.
         settings.push(("connect/timeout_ms", "-1".to_string()));
     }
     if let Some(tls) = &options.tls {
@@ -194,6 +194,31 @@ async fn open_session(options: &ZenohOptions, who: &str) -> Result<zenoh::Sessio
             TransportError::Open(e)
         }
     })
+}
+
+/// Waits for `opening` (a session of `who`, opened with `options`) at most
+/// `patience` where it joins through routers: a client whose routers never
+/// answer keeps trying them for good (see [`config`]), which is right for a
+/// drone powered up before the ground network, but a ground station or a
+/// command the crew waits on must say so instead of hanging.
+pub async fn within<T>(
+    opening: impl std::future::Future<Output = Result<T, TransportError>>,
+    who: &str,
+    options: &ZenohOptions,
+    patience: Duration,
+) -> Result<T, TransportError> {
+    if options.mode != eamos_fleet::Mode::Client {
+        return opening.await;
+    }
+    tokio::time::timeout(patience, opening)
+        .await
+        .unwrap_or_else(|_| {
+            Err(TransportError::NoRouter {
+                peer: who.to_string(),
+                routers: options.connect.clone(),
+                waited: patience,
+            })
+        })
 }
 
 /// The peer whose liveliness token `key` is, in `mission`
