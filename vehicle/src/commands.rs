@@ -10,8 +10,8 @@ use eamos_mid::mavlink::link::Received;
 use eamos_mid::mavlink::modes::CopterMode;
 use eamos_mid::FlightMode;
 
+use crate::firmware::Firmware;
 use crate::mode::{Mode, Role};
-use crate::options::Firmware;
 use crate::state::Vehicle;
 use crate::telemetry::STREAMABLE;
 

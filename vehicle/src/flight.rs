@@ -6,8 +6,8 @@ use eamos_mid::mavlink::dialect::MavResult;
 use eamos_mid::mavlink::modes::{CopterMode, Px4Mode};
 use eamos_mid::FlightMode;
 
+use crate::firmware::Firmware;
 use crate::mode::{Mode, Role};
-use crate::options::Firmware;
 use crate::px4::PX4_TAKEOFF_HEIGHT;
 use crate::state::Vehicle;
 

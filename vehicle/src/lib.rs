@@ -75,6 +75,7 @@
 #![allow(deprecated)]
 
 mod commands;
+mod firmware;
 mod flight;
 pub mod handle;
 mod mode;
@@ -85,6 +86,7 @@ mod state;
 mod task;
 mod telemetry;
 
+pub use firmware::Firmware;
 pub use handle::SimVehicle;
-pub use options::{Firmware, SimVehicleOptions};
+pub use options::SimVehicleOptions;
 pub use state::VehicleSnapshot;

@@ -2,7 +2,7 @@
 
 use eamos_mid::mavlink::modes::{Autopilot, CopterMode, Px4Mode};
 
-use crate::options::Firmware;
+use crate::firmware::Firmware;
 
 /// What a mode makes the copter do, whichever firmware numbers it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

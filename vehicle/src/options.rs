@@ -4,7 +4,7 @@ use eamos_geo::{Ned, Wgs84};
 use eamos_mid::mavlink::ConnectAddress;
 use eamos_mid::sim::kinematics::MultirotorConfig;
 
-use crate::state::Vehicle;
+use crate::firmware::Firmware;
 
 /// How the test vehicle is set up.
 #[derive(Debug, Clone)]
@@ -46,14 +46,6 @@ pub struct SimVehicleOptions {
     /// How far (m) the reported position of a flying copter wanders
     /// around where it is, as a real EKF's estimate does while hovering.
     pub position_noise: f64,
-}
-
-/// The autopilot firmware a test vehicle imitates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Firmware {
-    #[default]
-    ArduPilot,
-    Px4,
 }
 
 impl Default for SimVehicleOptions {
@@ -122,7 +114,7 @@ impl SimVehicleOptions {
             ));
         }
         for (name, value) in &self.params {
-            if !Vehicle::knows_param(self.autopilot, name) {
+            if !self.autopilot.knows_param(name) {
                 return Err(format!(
                     "the {} vehicle has no parameter {name} it acts on",
                     match self.autopilot {

@@ -7,25 +7,8 @@ use eamos_mid::mavlink::dialect::{
     MavMessage, MavParamType, PARAM_REQUEST_READ_DATA, PARAM_VALUE_DATA,
 };
 
-use crate::options::Firmware;
+use crate::firmware::Firmware;
 use crate::state::Vehicle;
-
-/// The firmware's defaults for what the vehicle acts on.
-fn defaults(firmware: Firmware) -> &'static [(&'static str, f64, MavParamType)] {
-    use MavParamType::*;
-    match firmware {
-        // FS_GCS_ENABLE 0: nothing happens when the ground link is lost.
-        Firmware::ArduPilot => &[
-            ("FS_GCS_ENABLE", 0.0, MAV_PARAM_TYPE_INT8),
-            ("FS_GCS_TIMEOUT", 5.0, MAV_PARAM_TYPE_REAL32),
-        ],
-        // COM_OBL_RC_ACT 0: Position mode, which holds without sticks.
-        Firmware::Px4 => &[
-            ("COM_OF_LOSS_T", 1.0, MAV_PARAM_TYPE_REAL32),
-            ("COM_OBL_RC_ACT", 0.0, MAV_PARAM_TYPE_INT32),
-        ],
-    }
-}
 
 impl Vehicle {
     /// The value of parameter `name`: set on the command line, else the
@@ -41,7 +24,9 @@ impl Vehicle {
             .find(|(n, _)| n == name)
             .map(|(_, v)| *v)
             .or_else(|| {
-                defaults(self.o.autopilot)
+                self.o
+                    .autopilot
+                    .params()
                     .iter()
                     .find(|(n, ..)| *n == name)
                     .map(|(_, v, _)| *v)
@@ -54,7 +39,7 @@ impl Vehicle {
         let Ok(name) = request.param_id.to_str() else {
             return;
         };
-        let table = defaults(self.o.autopilot);
+        let table = self.o.autopilot.params();
         let Some(index) = table.iter().position(|(n, ..)| *n == name) else {
             return;
         };
@@ -75,10 +60,5 @@ impl Vehicle {
             param_id: name.into(),
             param_type: kind,
         }));
-    }
-
-    /// Whether `name` is a parameter this firmware serves.
-    pub(crate) fn knows_param(firmware: Firmware, name: &str) -> bool {
-        defaults(firmware).iter().any(|(n, ..)| *n == name)
     }
 }

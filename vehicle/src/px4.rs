@@ -4,8 +4,8 @@ use eamos_geo::Ned;
 use eamos_mid::mavlink::dialect::MavResult;
 use eamos_mid::FlightMode;
 
+use crate::firmware::Firmware;
 use crate::mode::{Mode, Role};
-use crate::options::Firmware;
 use crate::state::Vehicle;
 
 /// PX4's default take-off height (`MIS_TAKEOFF_ALT`), metres.

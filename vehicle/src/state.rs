@@ -8,8 +8,9 @@ use eamos_geo::Vec3;
 use eamos_mid::mavlink::dialect::{MavMessage, MavSeverity, STATUSTEXT_DATA};
 use eamos_mid::sim::kinematics::Multirotor;
 
+use crate::firmware::Firmware;
 use crate::mode::{Mode, Role};
-use crate::options::{Firmware, SimVehicleOptions};
+use crate::options::SimVehicleOptions;
 
 /// What a test may check of the vehicle from outside.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -10,8 +10,8 @@ use eamos_mid::mavlink::dialect::{
 };
 use eamos_mid::FlightMode;
 
+use crate::firmware::Firmware;
 use crate::mode::Role;
-use crate::options::Firmware;
 use crate::state::Vehicle;
 
 /// Message ids the vehicle can stream, with ArduPilot's data-stream group.

@@ -7,7 +7,7 @@ use eamos_petri::export::transition_kind_name;
 use eamos_petri::net::{ArcKind, Net, Node, Owner};
 use serde::Serialize;
 
-use crate::model::line_of;
+use crate::input::line_of;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Graph {

@@ -24,8 +24,10 @@
 
 mod graph;
 mod html;
+mod input;
 mod model;
 mod timeline;
 
 pub use html::page;
-pub use model::{model, Input, Model};
+pub use input::Input;
+pub use model::{model, Model};

@@ -3,13 +3,10 @@
 //! fleet frame, source places as 1-based lines), serialised into the page.
 
 use eamos_geo::{Airspace, Vec3, Wgs84};
-use eamos_lang::{SourceFile, Span};
-use eamos_petri::Net;
-use eamos_profile::ProfileTable;
-use eamos_verify::{Plan, Report, Space};
 use serde::Serialize;
 
 use crate::graph::{graph, Graph};
+use crate::input::{line_of, Input};
 use crate::timeline::{timeline, Timeline};
 
 /// Version of the model's JSON: a monitor feeding the page checks it.
@@ -20,21 +17,6 @@ pub const SCHEMA: &str = "eamos-view/1";
 const COLOURS: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2",
 ];
-
-/// What the report is made from.
-pub struct Input<'a> {
-    pub source: &'a SourceFile,
-    pub net: &'a Net,
-    pub profiles: &'a ProfileTable,
-    /// The checker's report, with its spatial findings.
-    pub report: &'a Report,
-    /// Every leg of every drone, or why the mission was too large to
-    /// follow them.
-    pub plan: &'a Result<Plan, String>,
-    pub space: &'a Space,
-    /// The fleet frame's origin on the earth, if the fleet file gives one.
-    pub origin: Option<Wgs84>,
-}
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Model {
@@ -97,11 +79,6 @@ pub struct Finding {
 
 fn xyz(v: Vec3) -> [f64; 3] {
     [v.x, v.y, v.z]
-}
-
-/// 1-based line of a span's start.
-pub(crate) fn line_of(source: &SourceFile, span: Span) -> u32 {
-    source.line_col(span.start).line
 }
 
 /// Builds the model of a checked mission.

@@ -14,7 +14,7 @@ use eamos_petri::net::{Net, NodeId, TransitionKind};
 use eamos_verify::Plan;
 use serde::Serialize;
 
-use crate::model::{line_of, Input};
+use crate::input::{line_of, Input};
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Timeline {
