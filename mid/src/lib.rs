@@ -14,6 +14,11 @@
 //! - [`mavlink`]: the MAVLink adapter (ArduPilot, PX4). The MAVLink vehicle
 //!   that imitates them in tests is the `eamos-vehicle` crate, built on
 //!   [`sim::kinematics`].
+//!
+//! It knows drones, not missions: nothing here may depend on the mission
+//! language, the net, slices or the executor (its only crates of the
+//! workspace are `eamos-profile` and `eamos-geo`), so that a new platform
+//! is an adapter and nothing else.
 
 pub mod api;
 pub mod clock;

@@ -44,6 +44,9 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     let compiled =
         eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);
+    // The checked mission is the net's now: freed before the slices are
+    // cut, as `eamos build` does, instead of held through the cut.
+    drop(compiled);
     let fleet = Fleet::load_or_default(fleet, &net.name, &net.drones)
         .map_err(|e| bad_input(&e.to_string()))?;
     // Cut under the identity of the net and the fleet: peers built from
