@@ -30,6 +30,19 @@ pub fn bad_input(message: &str) -> ExitCode {
 /// Reads `mission` and `fleet` (the default fleet without one); on bad input
 /// prints the diagnostics (coloured if `colour`) and returns exit status 2.
 pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Mission, ExitCode> {
+    cut(read(mission, fleet, colour)?)
+}
+
+/// A mission compiled to its net, with its fleet, not yet sliced.
+struct Read {
+    name: String,
+    source: SourceFile,
+    profiles: ProfileTable,
+    net: Net,
+    fleet: Fleet,
+}
+
+fn read(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Read, ExitCode> {
     let name = mission.display().to_string();
     let bytes =
         std::fs::read(mission).map_err(|e| bad_input(&format!("cannot read {name}: {e}")))?;
@@ -44,13 +57,30 @@ pub fn load(mission: &Path, fleet: Option<&Path>, colour: bool) -> Result<Missio
     let compiled =
         eamos_lang::compile(&source, &profiles).map_err(|diags| report(&source, &diags))?;
     let net = eamos_petri::compile(&compiled.mission, &profiles);
-    // The checked mission is the net's now: freed before the slices are
-    // cut, as `eamos build` does, instead of held through the cut.
+    // The checked mission is the net's now: freed before anything else
+    // runs on the net, as `eamos build` does.
     drop(compiled);
     let fleet = Fleet::load_or_default(fleet, &net.name, &net.drones)
         .map_err(|e| bad_input(&e.to_string()))?;
-    // Cut under the identity of the net and the fleet: peers built from
-    // another mission or fleet file refuse these slices.
+    Ok(Read {
+        name,
+        source,
+        profiles,
+        net,
+        fleet,
+    })
+}
+
+/// Cuts the slices under the identity of the net and the fleet: peers
+/// built from another mission or fleet file refuse these slices.
+fn cut(read: Read) -> Result<Mission, ExitCode> {
+    let Read {
+        name,
+        source,
+        profiles,
+        net,
+        fleet,
+    } = read;
     let slices = eamos_fleet::identity::slice(&net, &fleet)
         .map_err(|e| bad_input(&format!("{name}: cannot slice the mission: {e}")))?;
     Ok(Mission {
@@ -71,17 +101,20 @@ pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
     }
 }
 
-/// [`load`], then [`preflight`]: what `run` and `deploy` read before they
-/// fly anything.
+/// [`load`] with [`preflight`] between the compile and the cut: what `run`
+/// and `deploy` read before they fly anything. The check runs before the
+/// slices exist, so that its memory and theirs are not held at once (a
+/// ground station of 250 drones peaked at the check, with every drone's
+/// slice beside it).
 pub fn load_to_fly(
     mission: &Path,
     fleet: Option<&Path>,
     colour: bool,
     allow_findings: bool,
 ) -> Result<Mission, ExitCode> {
-    let loaded = load(mission, fleet, colour)?;
-    preflight(&loaded, allow_findings, colour)?;
-    Ok(loaded)
+    let read = read(mission, fleet, colour)?;
+    preflight(&read, allow_findings, colour)?;
+    cut(read)
 }
 
 /// Returns to the system the heap that the compile and the check freed:
@@ -104,7 +137,7 @@ pub fn give_back_freed_memory() {
 /// (a deadlock, two drones that can meet, a leg out of the airspace, a
 /// motion before take-off...) stops it, unless the user said
 /// `--allow-findings`; either way the findings are printed first.
-pub fn preflight(m: &Mission, allow_findings: bool, colour: bool) -> Result<(), ExitCode> {
+fn preflight(m: &Read, allow_findings: bool, colour: bool) -> Result<(), ExitCode> {
     let options = eamos_verify::Options {
         space: Some(space(&m.fleet, &m.net.drones)),
         ..eamos_verify::Options::default()
