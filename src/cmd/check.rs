@@ -128,6 +128,9 @@ pub fn run(args: Args) -> ExitCode {
                     );
                 }
                 let net = eamos_petri::compile(&compiled.mission, &profiles);
+                // The checker reads the net: the checked mission is freed
+                // before it runs, not held through it.
+                drop(compiled);
                 let fleet = match &args.fleet {
                     Some(path) => match eamos_fleet::Fleet::load(path, &net.name, &net.drones) {
                         Ok(f) => f,
