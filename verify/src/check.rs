@@ -1363,9 +1363,9 @@ fn unsafe_or(unsafe_found: bool, reason: String) -> String {
 fn step(net: &PtNet, t: u32) -> Step {
     let s = &net.steps[t as usize];
     Step {
-        transition: s.id.clone(),
-        kind: s.kind.clone(),
-        text: s.text.clone(),
+        transition: s.id.to_string(),
+        kind: s.kind.to_string(),
+        text: s.text.to_string(),
         internal: s.internal,
         span: s.span,
         condition_held: s.guard.map(|(_, held)| held),
@@ -1376,7 +1376,7 @@ fn marking<E: Encoding>(net: &PtNet, m: &[u64]) -> Vec<(String, u32)> {
     let mut out = Vec::new();
     E::for_each_marked(m, |p| {
         if !net.places[p as usize].synthetic {
-            out.push((net.places[p as usize].id.clone(), E::get(m, p)));
+            out.push((net.places[p as usize].id.to_string(), E::get(m, p)));
         }
     });
     out

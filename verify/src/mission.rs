@@ -164,10 +164,10 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
     // A guarded plumbing step is a choice a person must see.
     let internal = internal && guard.is_none();
     StepInfo {
-        id: t.id.to_string(),
-        label: t.label.to_string(),
-        kind: kind.to_string(),
-        text,
+        id: t.id.clone(),
+        label: t.label.clone(),
+        kind: kind.into(),
+        text: text.into(),
         internal,
         span,
         guard,
@@ -225,12 +225,12 @@ pub(crate) fn subject(
         let i = places.len() as u32;
         place_index[n.index()] = i;
         let event = match &p.kind {
-            PlaceKind::Event(e) => Some(e.clone()),
+            PlaceKind::Event(e) => Some(e.as_str().into()),
             _ => None,
         };
         places.push(PlaceInfo {
-            id: p.id.to_string(),
-            label: p.label.to_string(),
+            id: p.id.clone(),
+            label: p.label.clone(),
             span: p.span,
             event,
             is_final: n == net.final_place,
@@ -303,8 +303,8 @@ pub(crate) fn subject(
                     .to_string();
                 for k in 0..=count {
                     places.push(PlaceInfo {
-                        id: format!("{}#{k}", net.id(head)),
-                        label: format!("{label}: {k} round(s) done"),
+                        id: format!("{}#{k}", net.id(head)).into(),
+                        label: format!("{label}: {k} round(s) done").into(),
                         span: None,
                         event: None,
                         is_final: false,

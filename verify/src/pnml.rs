@@ -533,8 +533,8 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
     for (i, p) in net.places.iter().enumerate() {
         place_ix.insert(&p.id, i as u32);
         places.push(PlaceInfo {
-            id: p.id.clone(),
-            label: p.name.clone(),
+            id: p.id.as_str().into(),
+            label: p.name.as_str().into(),
             span: Some(p.span),
             event: None,
             is_final: p.is_final,
@@ -556,10 +556,10 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
             format!("transition `{}` ({}) fires", t.name, t.id)
         };
         steps.push(StepInfo {
-            id: t.id.clone(),
-            label: t.name.clone(),
+            id: t.id.as_str().into(),
+            label: t.name.as_str().into(),
             kind: "Transition".into(),
-            text,
+            text: text.into(),
             internal: false,
             span: Some(t.span),
             guard: None,

@@ -15,6 +15,7 @@
 //! (see [`crate::explore`]).
 
 use eamos_lang::Span;
+use eamos_petri::name::Name;
 
 /// Above this many rounds a `RepeatFor` is not explored. Its counter is
 /// explored exactly (one marking per round, see the module doc), with one
@@ -56,16 +57,19 @@ impl<T> Csr<T> {
 }
 
 /// What a transition is, in the words a person reads in a counterexample.
+/// Its texts are shared [`Name`]s: the net's own ids and labels, not
+/// copies of them, and a copy of the whole net (with monitors, with the
+/// spatial model's steps) shares them again.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StepInfo {
     /// Stable id of the transition in the net (`t42`) or the PNML file.
-    pub id: String,
+    pub id: Name,
     /// Its label (or PNML name).
-    pub label: String,
+    pub label: Name,
     /// The kind of step, in the net's terms (`ActionStart`, `Branch`, ...).
-    pub kind: String,
+    pub kind: Name,
     /// What a person reads: `D1.FlyByX(0.2) starts`.
-    pub text: String,
+    pub text: Name,
     /// Forks, joins and other plumbing that only matters to tools.
     pub internal: bool,
     pub span: Option<Span>,
@@ -77,11 +81,11 @@ pub struct StepInfo {
 /// What a place is, for naming it in findings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlaceInfo {
-    pub id: String,
-    pub label: String,
+    pub id: Name,
+    pub label: Name,
     pub span: Option<Span>,
     /// The name of the event, for event places.
-    pub event: Option<String>,
+    pub event: Option<Name>,
     /// The place that marks the end of the mission.
     pub is_final: bool,
     /// Bookkeeping (event places and the like): a token here is not a

@@ -12,8 +12,8 @@ pub(crate) type Arcs = (Vec<u32>, Vec<u32>, Vec<u32>);
 
 pub(crate) fn net(places: usize, initial: &[bool], ts: &[Arcs]) -> PtNet {
     let place = |i: usize| PlaceInfo {
-        id: format!("p{i}"),
-        label: String::new(),
+        id: format!("p{i}").into(),
+        label: "".into(),
         span: None,
         event: None,
         is_final: false,
@@ -21,10 +21,10 @@ pub(crate) fn net(places: usize, initial: &[bool], ts: &[Arcs]) -> PtNet {
         synthetic: false,
     };
     let step = |i: usize| StepInfo {
-        id: format!("t{i}"),
-        label: String::new(),
-        kind: String::new(),
-        text: String::new(),
+        id: format!("t{i}").into(),
+        label: "".into(),
+        kind: "".into(),
+        text: "".into(),
         internal: false,
         span: None,
         guard: None,

@@ -145,8 +145,8 @@ fn record_rests(
         for last in pos.lasts(d) {
             let i = places.len() as u32;
             places.push(PlaceInfo {
-                id: format!("{}@{}", prep.names.drone(d), last_id(last)),
-                label: format!("{} rests at {}", prep.names.drone(d), last_id(last)),
+                id: format!("{}@{}", prep.names.drone(d), last_id(last)).into(),
+                label: format!("{} rests at {}", prep.names.drone(d), last_id(last)).into(),
                 span: None,
                 event: None,
                 is_final: false,
