@@ -281,3 +281,39 @@ fn an_abort_whose_routers_never_answer_says_so_within_its_timeout() {
         "{err}"
     );
 }
+
+#[test]
+fn a_drone_whose_routers_never_answer_keeps_trying_and_says_so_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (fleet, router) = fleet_without_its_router(dir.path());
+    let err = dir.path().join("stderr");
+    let mut drone = Processes(vec![eamos()
+        .arg("run")
+        .arg(experiment_c())
+        .arg("--fleet")
+        .arg(&fleet)
+        .args(["--drone", "Drone1", "--startup-timeout", "1", "--out"])
+        .arg(dir.path().join("logs"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(std::fs::File::create(&err).unwrap()))
+        .spawn()
+        .unwrap()]);
+    let said = format!("Drone1 none of the fleet's routers answers yet ({router}); still trying");
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let text = std::fs::read_to_string(&err).unwrap();
+        if text.contains(&said) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "never said it waits:\n{text}");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // Still waiting (not given up), and said once.
+    std::thread::sleep(Duration::from_secs(2));
+    assert!(
+        drone.0[0].try_wait().unwrap().is_none(),
+        "the drone gave up"
+    );
+    let text = std::fs::read_to_string(&err).unwrap();
+    assert_eq!(text.matches("still trying").count(), 1, "{text}");
+}

@@ -185,6 +185,9 @@ pub enum Kind {
         altitude: f64,
         battery: f64,
     },
+    /// A drone has waited its start-up timeout for the fleet's routers and
+    /// none answers yet: it keeps trying (said once).
+    RoutersWaiting { routers: Vec<String> },
     /// An agent waits for a slice on the fleet's roll-out endpoints.
     RolloutWaiting { endpoints: Vec<String> },
     /// An agent accepted and kept the slice of a mission.

@@ -443,6 +443,46 @@ async fn endpoint(
     Ok(e)
 }
 
+/// Opens the zenoh link of the peer that runs `slice` ([`endpoint`]),
+/// unless the run is stopped first. A drone that waits for the fleet's
+/// routers for good says so once, after its start-up timeout (the ground
+/// station gives up then instead).
+async fn join(
+    slice: &Slice,
+    all: &[String],
+    fleet: &Fleet,
+    hub: &InProcessHub,
+    options: &RunOptions,
+    events: &Arc<dyn Sink>,
+    clock: &MissionClock,
+) -> Result<Endpoint, RunError> {
+    let peer = slice.drone.as_str();
+    let opening = endpoint(slice, all, fleet, TransportKind::Zenoh, hub, options);
+    tokio::pin!(opening);
+    let patience = tokio::time::sleep(options.startup_timeout);
+    tokio::pin!(patience);
+    let mut said = false;
+    loop {
+        tokio::select! {
+            e = &mut opening => return e.map(|e| partitioned(e, options)),
+            () = options.stop.cancelled() => {
+                return Err(RunError::StoppedJoining { peer: peer.to_string() })
+            }
+            () = &mut patience, if !said => {
+                said = true;
+                let opts = fleet.zenoh_options(&slice.mission_id, all, peer);
+                if peer != GCS && opts.mode == Mode::Client {
+                    events.event(&Event {
+                        time: clock.now(),
+                        drone: peer.to_string(),
+                        kind: Kind::RoutersWaiting { routers: opts.connect },
+                    });
+                }
+            }
+        }
+    }
+}
+
 /// The link of `e` subject to the run's partition, if it has one.
 fn partitioned(mut e: Endpoint, options: &RunOptions) -> Endpoint {
     if let Some(p) = &options.partition {
@@ -681,13 +721,7 @@ pub async fn run_peer(
     );
     record_airframes(&built.sims, options, paths_stop.clone());
     let hub = InProcessHub::new();
-    let opening = endpoint(slice, &all, fleet, TransportKind::Zenoh, &hub, options);
-    let e = tokio::select! {
-        e = opening => e.map(|e| partitioned(e, options))?,
-        () = options.stop.cancelled() => {
-            return Err(RunError::StoppedJoining { peer: peer.to_string() })
-        }
-    };
+    let e = join(slice, &all, fleet, &hub, options, &events, &built.clock).await?;
     tokio::spawn(publish::drain(outbox, e.link.clone()));
     let journal = journals.get(peer);
     let (b, delivered) = start_bridges(

@@ -486,6 +486,10 @@ fn alert(e: &Event) -> Option<String> {
             ..
         } => format!("failsafe: {failsafe}"),
         Kind::AdapterWarning { detail } => format!("warning: {detail}"),
+        Kind::RoutersWaiting { routers } => format!(
+            "none of the fleet's routers answers yet ({}); still trying",
+            routers.join(", ")
+        ),
         _ => return None,
     })
 }
