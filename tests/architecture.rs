@@ -70,8 +70,8 @@ fn module_of(src: &Path, file: &Path) -> Vec<String> {
     parts
 }
 
-/// The code of a file that counts: without comments, string contents and
-/// its tests.
+/// The code of a file that counts: without line comments and without its
+/// tests (everything from its first `#[cfg(test)]` on).
 fn code(text: &str) -> String {
     let body = text.split("#[cfg(test)]").next().unwrap_or_default();
     body.lines()
@@ -84,8 +84,8 @@ fn code(text: &str) -> String {
 }
 
 /// The paths named from `module` through `crate::`, `super::` and
-/// `self::` in `code`, made absolute (braces of a `use` expanded to their
-/// first segments).
+/// `self::` in `code`, made absolute (a `use` group gives one path per
+/// branch).
 fn named_paths(module: &[String], code: &str) -> Vec<Vec<String>> {
     let mut paths = Vec::new();
     let bytes = code.as_bytes();
@@ -115,22 +115,7 @@ fn named_paths(module: &[String], code: &str) -> Vec<Vec<String>> {
                     rest = r;
                 }
             }
-            let mut segs = rest.split("::");
-            let mut tail = Vec::new();
-            for seg in segs.by_ref() {
-                let word: String = seg
-                    .chars()
-                    .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                    .collect();
-                if word.is_empty() {
-                    break;
-                }
-                let whole = word.len() == seg.len();
-                tail.push(word);
-                if !whole {
-                    break;
-                }
-            }
+            let tail = words(rest);
             if tail.is_empty() && rest.starts_with('{') {
                 // `use crate::{a::X, b::{c, d}}`: each branch's path.
                 for branch in branches(&rest[1..]) {
@@ -170,18 +155,25 @@ fn branches(group: &str) -> Vec<&str> {
     out
 }
 
-/// The leading words of a path (`a::b::{c}` gives `a`, `b`).
+/// The leading words of a path, up to and with the first that ends it
+/// (`a::b::{c}` gives `a`, `b`; `a::B;` gives `a`, `B`).
 fn words(path: &str) -> Vec<String> {
-    path.trim()
-        .split("::")
-        .map_while(|seg| {
-            let word: String = seg
-                .chars()
-                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                .collect();
-            (!word.is_empty() && word.len() == seg.trim_end().len()).then_some(word)
-        })
-        .collect()
+    let mut out = Vec::new();
+    for seg in path.trim_start().split("::") {
+        let word: String = seg
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect();
+        if word.is_empty() {
+            break;
+        }
+        let whole = word.len() == seg.len();
+        out.push(word);
+        if !whole {
+            break;
+        }
+    }
+    out
 }
 
 /// Whether the path at `at` is part of a `pub use` (a re-export).
