@@ -205,16 +205,22 @@ fn a_router_the_fleet_does_not_name_or_whose_port_is_taken_is_bad_input() {
     );
 }
 
+/// Starts `cmd` with its standard error written to `err`; killed when
+/// the test ends.
+fn started_into(cmd: &mut Command, err: &Path) -> Processes {
+    Processes(vec![cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(std::fs::File::create(err).unwrap()))
+        .spawn()
+        .unwrap()])
+}
+
 /// Runs `cmd` to its end, or fails the test if it is still running after
 /// a minute (it hangs): what it wrote on stderr, and its exit status.
 fn ended(cmd: &mut Command) -> (Option<i32>, String) {
     let dir = tempfile::tempdir().unwrap();
     let err = dir.path().join("stderr");
-    let mut child = Processes(vec![cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::from(std::fs::File::create(&err).unwrap()))
-        .spawn()
-        .unwrap()]);
+    let mut child = started_into(cmd, &err);
     let deadline = Instant::now() + Duration::from_secs(60);
     let status = loop {
         if let Some(s) = child.0[0].try_wait().unwrap() {
@@ -287,17 +293,16 @@ fn a_drone_whose_routers_never_answer_keeps_trying_and_says_so_once() {
     let dir = tempfile::tempdir().unwrap();
     let (fleet, router) = fleet_without_its_router(dir.path());
     let err = dir.path().join("stderr");
-    let mut drone = Processes(vec![eamos()
-        .arg("run")
-        .arg(experiment_c())
-        .arg("--fleet")
-        .arg(&fleet)
-        .args(["--drone", "Drone1", "--startup-timeout", "1", "--out"])
-        .arg(dir.path().join("logs"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::from(std::fs::File::create(&err).unwrap()))
-        .spawn()
-        .unwrap()]);
+    let mut drone = started_into(
+        eamos()
+            .arg("run")
+            .arg(experiment_c())
+            .arg("--fleet")
+            .arg(&fleet)
+            .args(["--drone", "Drone1", "--startup-timeout", "1", "--out"])
+            .arg(dir.path().join("logs")),
+        &err,
+    );
     let said = format!("Drone1 none of the fleet's routers answers yet ({router}); still trying");
     let deadline = Instant::now() + Duration::from_secs(60);
     loop {
