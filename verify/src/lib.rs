@@ -33,6 +33,7 @@ pub mod plan;
 pub mod pnml;
 mod ptnet;
 mod reduce;
+mod relation;
 pub mod report;
 mod space;
 mod structural;

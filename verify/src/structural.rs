@@ -25,34 +25,37 @@
 //! is used.
 
 use crate::ptnet::PtNet;
+use crate::relation::Relation;
 
-/// A symmetric place-by-place bit matrix.
+/// The relation, and what it says about 1-safety.
 pub(crate) struct Concurrency {
     n: usize,
-    words: usize,
-    bits: Vec<u64>,
+    /// A bit matrix, or runs of places for a large net (`relation.rs`).
+    pairs: Relation,
     /// Transitions and outputs that could get a second token.
     unsafe_pairs: Vec<(u32, u32)>,
 }
 
 impl Concurrency {
     pub(crate) fn compute(net: &PtNet) -> Self {
+        Self::compute_in(net, Relation::new(net.n_places()))
+    }
+
+    /// The relation of `net`, built in `pairs` (empty, over its places).
+    fn compute_in(net: &PtNet, pairs: Relation) -> Self {
         let n = net.n_places();
         let words = n.div_ceil(64).max(1);
         let mut c = Concurrency {
             n,
-            words,
-            bits: vec![0; n * words],
+            pairs,
             unsafe_pairs: Vec::new(),
         };
         let marked: Vec<u32> = (0..n as u32)
             .filter(|&p| net.initial[p as usize] > 0)
             .collect();
-        for &p in &marked {
-            for &q in &marked {
-                if p != q {
-                    c.set(p, q);
-                }
+        for (i, &p) in marked.iter().enumerate() {
+            for &q in &marked[i + 1..] {
+                c.pairs.relate(p, q);
             }
         }
         // Inputs and outputs with read arcs counted on both sides.
@@ -85,14 +88,13 @@ impl Concurrency {
             })
             .collect();
         for out in &outputs {
-            for &p in out {
-                for &q in out {
-                    if p != q {
-                        c.set(p, q);
-                    }
+            for (i, &p) in out.iter().enumerate() {
+                for &q in &out[i + 1..] {
+                    c.pairs.relate(p, q);
                 }
             }
         }
+        c.pairs.settle_all();
         // Rule 3 to its fixpoint, in sweeps over the transitions (in id
         // order, which the net compiler makes follow the mission, so most
         // of the relation flows down a drone's chain in one sweep). A
@@ -104,6 +106,8 @@ impl Concurrency {
         let mut seen_at = vec![0u64; inputs.len()];
         let mut clock = 1u64;
         let mut compatible = vec![0u64; words];
+        let mut row = vec![0u64; words];
+        let mut runs = Vec::new();
         let mut grown = Vec::new();
         loop {
             let mut changed = false;
@@ -117,7 +121,7 @@ impl Concurrency {
                 seen_at[t] = clock;
                 c.compatible(net, t, ins, &mut compatible);
                 for &p in &outputs[t] {
-                    c.join_row(p, &compatible, &mut grown);
+                    c.join_row(p, &compatible, (&mut row, &mut runs), &mut grown);
                 }
                 if !grown.is_empty() {
                     changed = true;
@@ -131,6 +135,7 @@ impl Concurrency {
                 break;
             }
         }
+        c.pairs.settle_all();
         for (t, ins) in inputs.iter().enumerate() {
             c.compatible(net, t, ins, &mut compatible);
             for &(p, _) in net.post.get(t) {
@@ -145,7 +150,7 @@ impl Concurrency {
 
     /// Places that can be marked while `t` is enabled and that `t` leaves
     /// alone: concurrent with (or equal to) each input, and not consumed.
-    fn compatible(&self, net: &PtNet, t: usize, inputs: &[u32], out: &mut [u64]) {
+    fn compatible(&mut self, net: &PtNet, t: usize, inputs: &[u32], out: &mut [u64]) {
         out.iter_mut().for_each(|w| *w = !0);
         if let Some(last) = out.last_mut() {
             let rem = self.n % 64;
@@ -157,10 +162,7 @@ impl Concurrency {
             out.iter_mut().for_each(|w| *w = 0);
         }
         for &q in inputs {
-            let row = self.row(q);
-            for (o, r) in out.iter_mut().zip(row) {
-                *o &= *r;
-            }
+            self.pairs.and_into(q, out);
             out[q as usize / 64] |= (1u64 << (q % 64)) & self.row_mask(q, inputs);
         }
         for &(p, _) in net.pre.get(t) {
@@ -178,16 +180,23 @@ impl Concurrency {
         }
     }
 
-    /// Makes `p` concurrent with every place of `with` (but itself), and
-    /// pushes onto `grown` every place whose row got a new pair (`p` first,
-    /// then the new partners). Whole words first, single bits only for the
-    /// new pairs (to keep the matrix symmetric): each pair of the relation
-    /// is set once, however many times the fixpoint visits it.
-    fn join_row(&mut self, p: u32, with: &[u64], grown: &mut Vec<u32>) {
-        let base = p as usize * self.words;
+    /// Makes `p` concurrent with every place of `with`, and pushes onto
+    /// `grown` every place whose row got a new pair (`p` first, then the
+    /// new partners). Row `p` takes the new pairs at once; each partner's
+    /// half is queued on its row (see `relation.rs`), so that each pair of
+    /// the relation is set once, however many times the fixpoint visits it.
+    /// `row` and `runs` are room to work in.
+    fn join_row(
+        &mut self,
+        p: u32,
+        with: &[u64],
+        (row, runs): (&mut [u64], &mut Vec<(u32, u32)>),
+        grown: &mut Vec<u32>,
+    ) {
+        self.pairs.copy_into(p, row);
         let mut changed = false;
         for (wi, &w) in with.iter().enumerate() {
-            let mut new = w & !self.bits[base + wi];
+            let mut new = w & !row[wi];
             if wi == p as usize / 64 {
                 new &= !(1u64 << (p % 64));
             }
@@ -198,27 +207,21 @@ impl Concurrency {
                 changed = true;
                 grown.push(p);
             }
-            self.bits[base + wi] |= new;
+            row[wi] |= new;
             while new != 0 {
                 let x = wi * 64 + new.trailing_zeros() as usize;
                 new &= new - 1;
-                self.bits[x * self.words + p as usize / 64] |= 1 << (p % 64);
+                self.pairs.queue(x as u32, p);
                 grown.push(x as u32);
             }
         }
-    }
-
-    fn row(&self, p: u32) -> &[u64] {
-        &self.bits[p as usize * self.words..(p as usize + 1) * self.words]
-    }
-
-    fn set(&mut self, p: u32, q: u32) {
-        self.bits[p as usize * self.words + q as usize / 64] |= 1 << (q % 64);
-        self.bits[q as usize * self.words + p as usize / 64] |= 1 << (p % 64);
+        if changed {
+            self.pairs.replace(p, row, runs);
+        }
     }
 
     pub(crate) fn get(&self, p: u32, q: u32) -> bool {
-        self.bits[p as usize * self.words + q as usize / 64] >> (q % 64) & 1 == 1
+        self.pairs.get(p, q)
     }
 
     /// Pairs `(t, p)` where `t` might fire into an already marked `p`. Empty
@@ -234,8 +237,92 @@ mod tests {
     use crate::testnet::{net, random, safe_markings};
     use proptest::prelude::*;
 
+    /// The rules as written, on a matrix of booleans, applied to every
+    /// transition until nothing changes: what the relation, its work list
+    /// and its runs are held against. Also the unsafe pairs, by their
+    /// definition.
+    fn by_the_rules(net: &PtNet) -> (Vec<Vec<bool>>, Vec<(u32, u32)>) {
+        let n = net.n_places();
+        let mut r = vec![vec![false; n]; n];
+        let marked: Vec<usize> = (0..n).filter(|&p| net.initial[p] > 0).collect();
+        for &p in &marked {
+            for &q in &marked {
+                r[p][q] = p != q;
+            }
+        }
+        let places = |arcs: &[&[(u32, u32)]]| -> Vec<usize> {
+            let mut v: Vec<usize> = arcs
+                .iter()
+                .flat_map(|a| a.iter().map(|&(p, _)| p as usize))
+                .collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        let ins = |t: usize| places(&[net.pre.get(t), net.read.get(t)]);
+        let outs = |t: usize| places(&[net.post.get(t), net.read.get(t)]);
+        let consumed = |t: usize| places(&[net.pre.get(t)]);
+        let compatible = |r: &Vec<Vec<bool>>, t: usize, x: usize| {
+            let i = ins(t);
+            !consumed(t).contains(&x)
+                && i.iter()
+                    .all(|&q| r[q][x] || (x == q && i.iter().all(|&o| o == q || r[q][o])))
+        };
+        for t in 0..net.n_real {
+            for &p in &outs(t) {
+                for &q in &outs(t) {
+                    r[p][q] |= p != q;
+                }
+            }
+        }
+        loop {
+            let mut changed = false;
+            for t in 0..net.n_real {
+                for x in 0..n {
+                    if !compatible(&r, t, x) {
+                        continue;
+                    }
+                    for p in outs(t) {
+                        if p != x && !r[x][p] {
+                            r[x][p] = true;
+                            r[p][x] = true;
+                            changed = true;
+                        }
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        let mut unsafe_pairs = Vec::new();
+        for t in 0..net.n_real {
+            for &(p, _) in net.post.get(t) {
+                if compatible(&r, t, p as usize) {
+                    unsafe_pairs.push((t as u32, p));
+                }
+            }
+        }
+        (r, unsafe_pairs)
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
+
+        #[test]
+        fn the_relation_is_the_one_the_rules_give((n, initial, ts) in random()) {
+            let net = net(n, &initial, &ts);
+            let (rules, unsafe_pairs) = by_the_rules(&net);
+            for pairs in [Relation::matrix(n), Relation::runs(n)] {
+                let c = Concurrency::compute_in(&net, pairs);
+                for p in 0..n as u32 {
+                    for q in 0..n as u32 {
+                        prop_assert_eq!(c.get(p, q), rules[p as usize][q as usize], "{} and {}", p, q);
+                    }
+                }
+                prop_assert_eq!(c.unsafe_candidates(), &unsafe_pairs[..]);
+            }
+        }
 
         #[test]
         fn every_pair_of_places_marked_together_is_in_the_relation((n, initial, ts) in random()) {
