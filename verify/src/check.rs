@@ -233,7 +233,8 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         }
         // The relation has chosen what to watch: freed before the
         // exploration, whose peak it would otherwise be part of (a
-        // place-by-place matrix, 3.6 MB at 5,000 places).
+        // place-by-place bit matrix, 3.6 MB at 5,000 places; beyond
+        // 16,384 places, its rows' runs).
         drop(conc);
         let base = recorded.unwrap_or_else(|| pt.clone());
         let net = base.with_monitors(monitors);

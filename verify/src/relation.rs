@@ -135,7 +135,7 @@ impl Relation {
     }
 
     pub(crate) fn matrix(n: usize) -> Self {
-        let words = n.div_ceil(64).max(1);
+        let words = words(n);
         Relation::Matrix(Matrix {
             words,
             bits: vec![0; n * words],
@@ -203,6 +203,11 @@ impl Relation {
             Relation::Runs(r) => r.replace(p, bits, runs),
         }
     }
+}
+
+/// The words of a row of bits over `n` places (one at least).
+pub(crate) fn words(n: usize) -> usize {
+    n.div_ceil(64).max(1)
 }
 
 /// The relation as a bit matrix, `words` words a row.

@@ -25,7 +25,7 @@
 //! is used.
 
 use crate::ptnet::PtNet;
-use crate::relation::Relation;
+use crate::relation::{Relation, Run};
 
 /// The relation, and what it says about 1-safety.
 pub(crate) struct Concurrency {
@@ -44,7 +44,7 @@ impl Concurrency {
     /// The relation of `net`, built in `pairs` (empty, over its places).
     fn compute_in(net: &PtNet, pairs: Relation) -> Self {
         let n = net.n_places();
-        let words = n.div_ceil(64).max(1);
+        let words = crate::relation::words(n);
         let mut c = Concurrency {
             n,
             pairs,
@@ -190,7 +190,7 @@ impl Concurrency {
         &mut self,
         p: u32,
         with: &[u64],
-        (row, runs): (&mut [u64], &mut Vec<(u32, u32)>),
+        (row, runs): (&mut [u64], &mut Vec<Run>),
         grown: &mut Vec<u32>,
     ) {
         self.pairs.copy_into(p, row);

@@ -105,7 +105,7 @@ impl<'n> Walker<'n> {
     fn branches(&self) -> HashMap<(NodeId, NodeId), Branch> {
         let mut out = HashMap::default();
         for (&join, &fork) in &self.fork_of {
-            for (start, _) in self.net.postset(fork).filter(|(q, _)| self.followed(*q)) {
+            for (start, _) in self.flow_out(fork) {
                 out.insert((fork, start), self.branch(fork, join, start));
             }
         }
@@ -139,7 +139,7 @@ impl<'n> Walker<'n> {
                     Some(TransitionKind::Join) => joins.push(t),
                     _ => {}
                 }
-                for (q, _) in self.net.postset(t).filter(|(q, _)| self.followed(*q)) {
+                for (q, _) in self.flow_out(t) {
                     if seen.insert(q) {
                         stack.push(q);
                     }
@@ -171,11 +171,15 @@ impl<'n> Walker<'n> {
 
     /// Where the token goes when transition `t` fires on colour `c`.
     pub(crate) fn after(&self, t: NodeId, c: &[u32], colours: bool) -> Vec<(NodeId, Colour)> {
-        self.net
-            .postset(t)
-            .filter(|(q, _)| self.followed(*q))
+        self.flow_out(t)
             .map(|(q, op)| (q, self.colour(op.apply(c), colours)))
             .collect()
+    }
+
+    /// The places of the control flow transition `t` produces into, with
+    /// the colour function of each arc.
+    fn flow_out(&self, t: NodeId) -> impl Iterator<Item = (NodeId, ColourOp)> + '_ {
+        self.net.postset(t).filter(|(q, _)| self.followed(*q))
     }
 
     /// Walks from `seeds` until `stop` says a transition is a stop. With
@@ -256,7 +260,7 @@ impl<'n> Walker<'n> {
                     // a fleet-wide block, 499 lookups of one key and the
                     // colours of 499 places: a fifth of a 500-drone check).
                     let mut joined: Option<(NodeId, ColourOp)> = None;
-                    for (q, op) in self.net.postset(t).filter(|(q, _)| self.followed(*q)) {
+                    for (q, op) in self.flow_out(t) {
                         match self.skipped(t, q, drone) {
                             // As if the walk had come down the branch to
                             // the join with the token it set out with.
