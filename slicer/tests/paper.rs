@@ -7,6 +7,7 @@ use eamos_slicer::bound::lower_bound;
 use eamos_slicer::compose::compose;
 use eamos_slicer::equivalence::{compare, Budget, Verdict};
 use eamos_slicer::{slice, slice_as, DecodeError, Slice, Slices, Statistics};
+use sha2::Digest as _;
 
 fn sliced(name: &str) -> Slices {
     slice(common::paper_net(name)).expect("paper missions slice")
@@ -144,6 +145,13 @@ fn the_net_hash_names_one_net_and_only_that_net() {
     assert!(id
         .bytes()
         .all(|b| b.is_ascii_hexdigit() && !b.is_ascii_uppercase()));
+    // It is SHA-256 of the net's postcard form, as written whole.
+    let whole = postcard::to_allocvec(&net).unwrap();
+    let expected: String = sha2::Sha256::digest(&whole)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect();
+    assert_eq!(id, expected);
     // The same mission compiled again is the same mission.
     assert_eq!(eamos_slicer::net_id(&common::paper_net("experiment_c")), id);
     // Every slice carries it.
