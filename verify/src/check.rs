@@ -233,8 +233,8 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         }
         // The relation has chosen what to watch: freed before the
         // exploration, whose peak it would otherwise be part of (a
-        // place-by-place bit matrix, 3.6 MB at 5,000 places; beyond
-        // 16,384 places, its rows' runs).
+        // place-by-place bit matrix up to 4,096 places, 2 MB; beyond,
+        // its rows' runs, 11 MB of them at 40,000 places).
         drop(conc);
         let base = recorded.unwrap_or_else(|| pt.clone());
         let net = base.with_monitors(monitors);

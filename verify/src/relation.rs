@@ -8,6 +8,11 @@
 //! flow, so a row is a few runs of consecutive places (about 0.18 times
 //! the fleet's size), a fraction of its bits.
 //!
+//! Places along one stretch of a drone's flow, between two meetings with
+//! other drones, are concurrent with the same places: their rows are
+//! equal. Each distinct row is kept once and shared (a quarter of the rows
+//! of a generated mission are distinct, at 500 and at 1,000 drones).
+//!
 //! Setting one pair into a list of runs is a search and an insertion, and
 //! the relation's fixpoint sets each of its pairs' second halves one by
 //! one (27 million at 500 drones). They are queued on their row instead
@@ -15,25 +20,53 @@
 //! is read as its runs and its queue together, and a row replaced whole
 //! takes its queue in.
 
+use std::sync::Arc;
+
+use rustc_hash::FxHashSet;
+
 /// Places `start..end`, the runs of a row sorted, apart and not touching.
 pub(crate) type Run = (u32, u32);
 
 /// The relation as runs.
 pub(crate) struct Runs {
     n: usize,
-    rows: Vec<Box<[Run]>>,
+    rows: Vec<Arc<[Run]>>,
+    /// Every row held, once: a row's runs are shared by every row equal
+    /// to it, and dropped with the last of them.
+    distinct: FxHashSet<Arc<[Run]>>,
     queued: Vec<Vec<u32>>,
-    /// Room to work in: the queued places a row read keeps.
+    /// Room to work in: the queued places a row read keeps; a row merged.
     kept: Vec<u32>,
+    merged: Vec<Run>,
 }
 
 impl Runs {
     fn new(n: usize) -> Self {
+        let empty: Arc<[Run]> = Arc::new([]);
         Runs {
             n,
-            rows: vec![Box::default(); n],
+            rows: vec![empty.clone(); n],
+            distinct: FxHashSet::from_iter([empty]),
             queued: vec![Vec::new(); n],
             kept: Vec::new(),
+            merged: Vec::new(),
+        }
+    }
+
+    /// Row `p` becomes `runs`, shared with the rows equal to it.
+    fn set_row(&mut self, p: u32, runs: &[Run]) {
+        let row = match self.distinct.get(runs) {
+            Some(row) => row.clone(),
+            None => {
+                let row: Arc<[Run]> = runs.into();
+                self.distinct.insert(row.clone());
+                row
+            }
+        };
+        let old = std::mem::replace(&mut self.rows[p as usize], row);
+        // Held by the set alone once this row lets it go.
+        if Arc::strong_count(&old) == 2 {
+            self.distinct.remove(&*old);
         }
     }
 
@@ -51,11 +84,15 @@ impl Runs {
         if self.queued[row].is_empty() {
             return;
         }
-        let points = &mut self.queued[row];
+        let mut points = std::mem::take(&mut self.queued[row]);
         points.sort_unstable();
         points.dedup();
-        self.rows[row] = merge(&self.rows[row], points);
-        forget(points);
+        let mut merged = std::mem::take(&mut self.merged);
+        merge(&self.rows[row], &points, &mut merged);
+        self.set_row(p, &merged);
+        self.merged = merged;
+        forget(&mut points);
+        self.queued[row] = points;
     }
 
     fn settle_all(&mut self) {
@@ -106,17 +143,18 @@ impl Runs {
     /// `runs` is room to build it in.
     fn replace(&mut self, p: u32, bits: &[u64], runs: &mut Vec<Run>) {
         runs_of(bits, runs);
-        self.rows[p as usize] = runs.as_slice().into();
+        self.set_row(p, runs);
         forget(&mut self.queued[p as usize]);
     }
 }
 
-/// Up to this many places the relation is a bit matrix (at most 32 MB),
-/// the quicker to compute; beyond, runs. At 500 and 1,000 drones (20,000
-/// and 40,000 places) the runs took the check's peak from 89 to 68 MB and
-/// from 268 to 165 MB, and its time from 0.6 to 0.8 s and from 2.8 to
-/// 3.5 s.
-const MATRIX_UP_TO: usize = 16_384;
+/// Up to this many places the relation is a bit matrix (at most 2 MB),
+/// the quicker to compute; beyond, runs. With rows shared, runs took the
+/// check of 250 drones (9,867 places) from 37 to 30 MB and from 0.23 to
+/// 0.29 s, and of the 20-drone stress mission (8,986 places) from 37 to
+/// 30 MB and from 0.15 to 0.18 s; at 20,000 and 40,000 places, where a
+/// matrix would be 50 and 200 MB, runs are a third and half of it.
+const MATRIX_UP_TO: usize = 4_096;
 
 /// A symmetric relation over places.
 pub(crate) enum Relation {
@@ -286,9 +324,9 @@ fn runs_of(bits: &[u64], runs: &mut Vec<Run>) {
     }
 }
 
-/// The union of `runs` and the sorted, distinct `points`.
-fn merge(runs: &[Run], points: &[u32]) -> Box<[Run]> {
-    let mut out: Vec<Run> = Vec::with_capacity(runs.len() + points.len());
+/// The union of `runs` and the sorted, distinct `points`, into `out`.
+fn merge(runs: &[Run], points: &[u32], out: &mut Vec<Run>) {
+    out.clear();
     let mut push = |(start, end): Run| match out.last_mut() {
         Some(last) if start <= last.1 => last.1 = last.1.max(end),
         _ => out.push((start, end)),
@@ -303,7 +341,6 @@ fn merge(runs: &[Run], points: &[u32]) -> Box<[Run]> {
             j += 1;
         }
     }
-    out.into_boxed_slice()
 }
 
 #[cfg(test)]
@@ -357,7 +394,58 @@ mod tests {
             let mut all = vec![!0; words];
             r.and_into(0, &mut all);
             prop_assert_eq!(&all, &bits);
+            if let Relation::Runs(runs_form) = &r {
+                prop_assert!(holds_each_row_once(runs_form));
+            }
             }
         }
+
+        /// Rows set equal share their runs; a row changed leaves the rows
+        /// it shared with as they were; runs no row holds any longer are
+        /// let go.
+        #[test]
+        fn equal_rows_share_their_runs_until_one_changes(
+            n in 2usize..150,
+            contents in prop::collection::vec(prop::collection::vec(any::<u64>(), 3), 1..4),
+            writes in prop::collection::vec((0u32..150, 0usize..4), 1..40),
+        ) {
+            let words = n.div_ceil(64);
+            let contents: Vec<Vec<u64>> = contents
+                .into_iter()
+                .map(|mut bits| {
+                    bits.truncate(words);
+                    if n % 64 != 0 {
+                        bits[words - 1] &= (1u64 << (n % 64)) - 1;
+                    }
+                    bits
+                })
+                .collect();
+            let Relation::Runs(mut r) = Relation::runs(n) else { unreachable!() };
+            let mut expected = vec![vec![0u64; words]; n];
+            let mut room = Vec::new();
+            for (p, c) in writes {
+                let (p, bits) = (p % n as u32, &contents[c % contents.len()]);
+                r.replace(p, bits, &mut room);
+                expected[p as usize] = bits.clone();
+                prop_assert!(holds_each_row_once(&r));
+                let mut back = vec![0; words];
+                for (q, bits) in expected.iter().enumerate() {
+                    r.copy_into(q as u32, &mut back);
+                    prop_assert_eq!(&back, bits, "row {}", q);
+                }
+            }
+        }
+    }
+
+    /// Every row's runs are the set's, and the set holds no runs that no
+    /// row holds.
+    fn holds_each_row_once(r: &Runs) -> bool {
+        let held: BTreeSet<&[Run]> = r.rows.iter().map(|row| &**row).collect();
+        held.len() == r.distinct.len()
+            && r.rows.iter().all(|row| {
+                r.distinct
+                    .get(&**row)
+                    .is_some_and(|kept| Arc::ptr_eq(kept, row))
+            })
     }
 }
