@@ -183,12 +183,16 @@ fn merge(arcs: &mut Vec<(u32, u32)>) {
 
 impl PtNet {
     pub(crate) fn new(
-        places: Vec<PlaceInfo>,
-        steps: Vec<StepInfo>,
+        mut places: Vec<PlaceInfo>,
+        mut steps: Vec<StepInfo>,
         mut transitions: Vec<RawTransition>,
         initial: Vec<u32>,
         final_place: Option<u32>,
     ) -> Self {
+        // Grown one by one: up to twice their length, and they are held
+        // through the exploration.
+        places.shrink_to_fit();
+        steps.shrink_to_fit();
         for t in &mut transitions {
             merge(&mut t.pre);
             merge(&mut t.read);
