@@ -957,8 +957,7 @@ impl Executor {
 
     /// The ground station says every end is reached.
     fn all_ended(&mut self, by: String) {
-        let owners: Vec<String> = self.slice.ends.clone();
-        self.ends_reached.extend(owners);
+        self.ends_reached.extend(self.slice.ends.iter().cloned());
         self.end_reached(by);
     }
 

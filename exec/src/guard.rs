@@ -6,6 +6,7 @@
 //! an answer, so a condition over it is undecided until the drone is back.
 
 use std::collections::{HashMap, HashSet};
+use std::sync::Arc;
 
 use eamos_lang::hir::{BinaryOp, Expr, UnaryOp};
 use eamos_mid::{evaluate_property, PropertyArg, Telemetry, Value};
@@ -26,7 +27,8 @@ pub enum EvalError {
 /// The latest state of every drone a slice may read, by drone index.
 #[derive(Debug, Clone, Default)]
 pub struct World {
-    names: Vec<String>,
+    /// The slice's list, shared.
+    names: Arc<[String]>,
     latest: HashMap<u16, Telemetry>,
     /// Drones lost (by liveness) whose telemetry no condition may use.
     lost: HashSet<u16>,
@@ -34,9 +36,9 @@ pub struct World {
 
 impl World {
     /// A world over the mission's drones (by `DroneId` index).
-    pub fn new(names: Vec<String>) -> Self {
+    pub fn new(names: impl Into<Arc<[String]>>) -> Self {
         World {
-            names,
+            names: names.into(),
             latest: HashMap::new(),
             lost: HashSet::new(),
         }

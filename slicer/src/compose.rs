@@ -205,7 +205,7 @@ pub fn compose(slices: &[Slice]) -> Result<Net, ComposeError> {
     Ok(Net {
         name: first.mission.clone(),
         graph,
-        drones: first.drones.clone(),
+        drones: first.drones.to_vec(),
         profiles: Vec::new(),
         initial_marking,
         initial_place: initials[0],
@@ -278,7 +278,7 @@ fn end_protocol(
             }
         }
         let relay = transition(graph, "relay".into(), TransitionKind::Silent);
-        for name in &slices[g].ends {
+        for name in slices[g].ends.iter() {
             // An owner without a slice never sends: `relay` waits for ever.
             let n = match slices.iter().position(|s| s.drone == *name) {
                 Some(x) => notice[x],
@@ -314,7 +314,7 @@ fn end_protocol(
     }
     for (r, sr) in slices.iter().enumerate() {
         let stop = transition(graph, format!("stop.{}", sr.drone), TransitionKind::Silent);
-        for name in &sr.ends {
+        for name in sr.ends.iter() {
             // An owner without a slice never sends: `stop` waits for ever.
             let from = slices.iter().position(|s| s.drone == *name);
             let n = match from {

@@ -488,7 +488,8 @@ fn cut_all(net: &Net, owners: &[Owner], mission_id: &str, ends: &[Owner]) -> Vec
             }
         }
     }
-    let ends: Vec<String> = ends.iter().map(|&o| owner_name(net, o)).collect();
+    let ends: std::sync::Arc<[String]> = ends.iter().map(|&o| owner_name(net, o)).collect();
+    let drones: std::sync::Arc<[String]> = net.drones.as_slice().into();
     owners
         .iter()
         .zip(nodes)
@@ -502,6 +503,7 @@ fn cut_all(net: &Net, owners: &[Owner], mission_id: &str, ends: &[Owner]) -> Vec
                 local: &local,
                 bridges: &bridges,
                 ends: &ends,
+                drones: &drones,
             };
             cut(net, part, count)
         })
@@ -517,7 +519,9 @@ struct Cut<'a> {
     local: &'a [u32],
     /// The bridges this owner sends or receives, numbered.
     bridges: &'a [(u32, petgraph::graph::EdgeIndex)],
-    ends: &'a [String],
+    ends: &'a std::sync::Arc<[String]>,
+    /// The mission's drones, one list for every slice.
+    drones: &'a std::sync::Arc<[String]>,
 }
 
 /// The slice of one owner: its nodes, its internal arcs, and a bridge for
@@ -532,6 +536,7 @@ fn cut(net: &Net, part: Cut, (place_count, transition_count): (u32, u32)) -> Sli
         local,
         bridges,
         ends,
+        drones,
     } = part;
     let mut places = Vec::with_capacity(place_count as usize);
     let mut transitions = Vec::with_capacity(transition_count as usize);
@@ -626,12 +631,12 @@ fn cut(net: &Net, part: Cut, (place_count, transition_count): (u32, u32)) -> Sli
             Owner::Drone(d) => net.profiles.get(d.0 as usize).cloned(),
             _ => None,
         },
-        drones: net.drones.clone(),
+        drones: drones.clone(),
         places,
         transitions,
         initial_marking,
         final_place,
-        ends: ends.to_vec(),
+        ends: ends.clone(),
         bridges_in,
         bridges_out,
         peers: peers.into_iter().collect(),

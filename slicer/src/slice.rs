@@ -23,6 +23,7 @@
 //! an executor never has to queue two tokens for one inbox.
 
 use std::collections::BTreeSet;
+use std::sync::Arc;
 
 use eamos_lang::hir::Expr;
 use eamos_petri::net::{ColourOp, GuardKind, Place, PlaceKind, Transition};
@@ -53,8 +54,9 @@ pub struct Slice {
     /// The capability profile of the drone; `None` for the ground station.
     pub profile: Option<String>,
     /// Every drone of the mission by `DroneId` index: guards and actions name
-    /// drones by index.
-    pub drones: Vec<String>,
+    /// drones by index. Shared by the slices cut together: a fleet of N
+    /// drones would otherwise hold N^2 names (4 MB of 250 drones' slices).
+    pub drones: Arc<[String]>,
     pub places: Vec<Place>,
     pub transitions: Vec<SliceTransition>,
     /// Places holding a token (of the empty colour) at the start.
@@ -66,7 +68,8 @@ pub struct Slice {
     /// mission's owners. The mission has ended when each of them has reached
     /// its end; an executor that reaches its own tells every peer with the
     /// `end` control notice. Owners not listed just play until then.
-    pub ends: Vec<String>,
+    /// Shared by the slices cut together, as `drones` is.
+    pub ends: Arc<[String]>,
     pub bridges_in: Vec<BridgeIn>,
     pub bridges_out: Vec<BridgeOut>,
     /// Peers this slice sends to or receives from, sorted.
@@ -234,7 +237,12 @@ impl Slice {
                 self.peers, peers
             ));
         }
-        for name in self.peers.iter().chain(&self.telemetry).chain(&self.ends) {
+        for name in self
+            .peers
+            .iter()
+            .chain(&self.telemetry)
+            .chain(self.ends.iter())
+        {
             if name != GCS && !self.drones.contains(name) {
                 return bad(format!("`{name}` is not a drone of the mission"));
             }

@@ -8,6 +8,7 @@ use eamos_slicer::compose::compose;
 use eamos_slicer::equivalence::{compare, Budget, Verdict};
 use eamos_slicer::{slice, slice_as, DecodeError, Slice, Slices, Statistics};
 use sha2::Digest as _;
+use std::sync::Arc;
 
 fn sliced(name: &str) -> Slices {
     slice(common::paper_net(name)).expect("paper missions slice")
@@ -67,18 +68,31 @@ fn a_mission_ends_on_every_drone_that_takes_part_in_its_last_join() {
     for drone in ["Drone1", "Drone2", "Drone3"] {
         let slice = s.get(drone).unwrap();
         assert!(slice.final_place.is_some(), "{drone} holds no end");
-        assert_eq!(slice.ends, ["Drone1", "Drone2", "Drone3"]);
+        assert_eq!(*slice.ends, ["Drone1", "Drone2", "Drone3"]);
     }
     let gcs = s.get(eamos_slicer::GCS).unwrap();
     assert_eq!(gcs.final_place, None);
-    assert_eq!(gcs.ends, ["Drone1", "Drone2", "Drone3"]);
+    assert_eq!(*gcs.ends, ["Drone1", "Drone2", "Drone3"]);
+}
+
+#[test]
+fn the_slices_cut_together_share_one_list_of_drones_and_of_ends() {
+    // Each slice names every drone and every end: copied into each, a
+    // fleet of N drones would hold N^2 names.
+    let s = sliced("experiment_c");
+    let first = &s.slices[0];
+    assert_eq!(*first.drones, ["Drone1", "Drone2", "Drone3"]);
+    for slice in &s.slices[1..] {
+        assert!(Arc::ptr_eq(&slice.drones, &first.drones), "{}", slice.drone);
+        assert!(Arc::ptr_eq(&slice.ends, &first.ends), "{}", slice.drone);
+    }
 }
 
 #[test]
 fn a_mission_that_ends_with_one_action_ends_on_that_drone_only() {
     let s = sliced("experiment_a");
     for slice in &s.slices {
-        assert_eq!(slice.ends, ["Drone1"], "{}", slice.drone);
+        assert_eq!(*slice.ends, ["Drone1"], "{}", slice.drone);
         assert_eq!(slice.final_place.is_some(), slice.drone == "Drone1");
     }
 }

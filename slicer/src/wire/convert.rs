@@ -27,12 +27,12 @@ impl From<&Slice> for v3::Slice {
             mission_id: s.mission_id.clone(),
             drone: s.drone.clone(),
             profile: s.profile.clone(),
-            drones: s.drones.clone(),
+            drones: s.drones.to_vec(),
             places: s.places.iter().map(place_out).collect(),
             transitions: s.transitions.iter().map(transition_out).collect(),
             initial_marking: s.initial_marking.clone(),
             final_place: s.final_place,
-            ends: s.ends.clone(),
+            ends: s.ends.to_vec(),
             bridges_in: s
                 .bridges_in
                 .iter()
@@ -67,7 +67,7 @@ impl TryFrom<v3::Slice> for Slice {
             mission_id: s.mission_id,
             drone: s.drone,
             profile: s.profile,
-            drones: s.drones,
+            drones: s.drones.into(),
             places: s.places.into_iter().map(place_in).collect(),
             transitions: s
                 .transitions
@@ -76,7 +76,7 @@ impl TryFrom<v3::Slice> for Slice {
                 .collect::<Result<_, _>>()?,
             initial_marking: s.initial_marking,
             final_place: s.final_place,
-            ends: s.ends,
+            ends: s.ends.into(),
             bridges_in: s
                 .bridges_in
                 .into_iter()
