@@ -9,6 +9,9 @@
 //!   deadlock, the asymmetric ones do not.
 //! - Generated missions of 20,000 nodes (`eamos gen --drones D --nodes
 //!   20000 --seed S`), every property but the spatial ones.
+//! - Fleets of 50 to 500 drones (`eamos gen --drones N --nodes 20N --seed
+//!   12`), every property as `eamos check` decides them by default, the
+//!   spatial ones included: how the check grows with the fleet.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -24,6 +27,10 @@ pub struct Entry {
     pub file: PathBuf,
     /// `--only deadlock`, or every property.
     pub deadlock_only: bool,
+    /// Separation, airspace and flight state decided too.
+    pub spatial: bool,
+    /// The fleet's size, for a mission of the growth series.
+    pub fleet: Option<usize>,
     /// The goal for it, in seconds.
     pub goal_s: Option<f64>,
 }
@@ -36,6 +43,9 @@ pub struct Checked {
     pub wall: Duration,
     pub peak_kib: u64,
 }
+
+/// The fleets of the growth series.
+pub const FLEETS: [usize; 4] = [50, 100, 250, 500];
 
 /// Memory bound of the corpus checks, in MB: a net that needs more is
 /// reported undecided rather than left to run for minutes.
@@ -64,6 +74,8 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
             generator: format!("eamos gen --philosophers {n}{suffix}"),
             file: write(&name, &philosophers(n, table))?,
             deadlock_only: true,
+            spatial: false,
+            fleet: None,
             goal_s,
         });
     }
@@ -84,7 +96,24 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
             generator: format!("eamos gen --drones {drones} --nodes 20000 --seed {seed}{flag}"),
             file: write(&format!("mission-{drones}-{seed}.go"), &mission.text)?,
             deadlock_only: false,
+            spatial: false,
+            fleet: None,
             goal_s: Some(5.0),
+        });
+    }
+    for drones in FLEETS {
+        let mission = generate(&Options::new(drones, Size::Nodes(20 * drones), 12))
+            .map_err(|e| e.to_string())?;
+        out.push(Entry {
+            generator: format!(
+                "eamos gen --drones {drones} --nodes {} --seed 12",
+                20 * drones
+            ),
+            file: write(&format!("fleet-{drones}.go"), &mission.text)?,
+            deadlock_only: false,
+            spatial: true,
+            fleet: Some(drones),
+            goal_s: None,
         });
     }
     Ok(out)
@@ -96,7 +125,7 @@ pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
     args.push(format!("--max-memory={MAX_MEMORY_MB}"));
     if entry.deadlock_only {
         args.extend(["--only".into(), "deadlock".into()]);
-    } else {
+    } else if !entry.spatial {
         args.push("--no-spatial".into());
     }
     let peak_file = entry.file.with_extension("peak");

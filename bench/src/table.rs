@@ -212,6 +212,40 @@ fn growth_exponent(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| sxy / sxx)
 }
 
+/// How the check of the fleet series grows with the fleet: time and peak
+/// memory fitted as powers of the number of drones (issue: close to
+/// linear).
+fn check_growth_row(corpus: &[(crate::corpus::Entry, crate::corpus::Checked)]) -> Row {
+    let series: Vec<(usize, &crate::corpus::Checked)> = corpus
+        .iter()
+        .filter_map(|(e, c)| Some((e.fleet?, c)))
+        .collect();
+    let fit = |y: &dyn Fn(&crate::corpus::Checked) -> f64| {
+        let points: Vec<(f64, f64)> = series.iter().map(|&(n, c)| (n as f64, y(c))).collect();
+        growth_exponent(&points)
+    };
+    let time = fit(&|c| c.wall.as_secs_f64());
+    let memory = fit(&|c| c.peak_kib as f64);
+    let power = |k: Option<f64>| k.map_or(MISSING.to_string(), |k| format!("{k:.2}"));
+    let fleets: Vec<String> = series.iter().map(|(n, _)| n.to_string()).collect();
+    row(
+        format!(
+            "`eamos check` of the fleet series ({} drones): growth with the fleet",
+            fleets.join(", ")
+        ),
+        format!(
+            "time ∝ drones^{}, peak memory ∝ drones^{}",
+            power(time),
+            power(memory)
+        ),
+    )
+    .goal(
+        format!("close to linear (exponents ≤ {})", goal::GROWTH_EXPONENT),
+        time.zip(memory)
+            .map(|(t, m)| t <= goal::GROWTH_EXPONENT && m <= goal::GROWTH_EXPONENT),
+    )
+}
+
 pub fn table(m: &Measured) -> String {
     let r = m.results;
     let (small, stress) = (&m.facts.small, &m.facts.stress);
@@ -548,6 +582,8 @@ pub fn table(m: &Measured) -> String {
     for (entry, c) in &m.corpus {
         let asked = if entry.deadlock_only {
             "deadlock only"
+        } else if entry.spatial {
+            "every property"
         } else {
             "every property but the spatial ones"
         };
@@ -573,6 +609,8 @@ pub fn table(m: &Measured) -> String {
         }
         rows.push(r);
     }
+
+    rows.push(check_growth_row(&m.corpus));
 
     for f in &m.fleets {
         rows.extend(fleet_rows(f));
@@ -790,6 +828,39 @@ mod tests {
         assert!(monitor_rows(Some(&run(99.0)))[2]
             .eamos
             .contains("3.0 MB of live heap"));
+    }
+
+    #[test]
+    fn the_fleet_series_is_judged_by_how_its_check_grows() {
+        let entry = |n| crate::corpus::Entry {
+            generator: format!("eamos gen --drones {n}"),
+            file: std::path::PathBuf::new(),
+            deadlock_only: false,
+            spatial: true,
+            fleet: Some(n),
+            goal_s: None,
+        };
+        let checked = |seconds: f64, peak_kib: u64| crate::corpus::Checked {
+            verdict: "every property decided".into(),
+            decided: true,
+            states: 1,
+            wall: std::time::Duration::from_secs_f64(seconds),
+            peak_kib,
+        };
+        let series = |time: &dyn Fn(f64) -> f64, memory: &dyn Fn(f64) -> f64| {
+            [50, 100, 250, 500]
+                .into_iter()
+                .map(|n| (entry(n), checked(time(n as f64), memory(n as f64) as u64)))
+                .collect::<Vec<_>>()
+        };
+        let linear = check_growth_row(&series(&|n| n / 100.0, &|n| 1000.0 * n));
+        assert_eq!(linear.met, "met");
+        assert!(linear.eamos.contains("drones^1.00"), "{}", linear.eamos);
+        let quadratic_time = check_growth_row(&series(&|n| n * n / 1e4, &|n| 1000.0 * n));
+        assert_eq!(quadratic_time.met, "not met");
+        let quadratic_memory = check_growth_row(&series(&|n| n / 100.0, &|n| n * n));
+        assert_eq!(quadratic_memory.met, "not met");
+        assert_eq!(check_growth_row(&[]).met, MISSING);
     }
 
     #[test]
