@@ -153,7 +153,8 @@ impl Runs {
 /// check of 250 drones (9,867 places) from 37 to 30 MB and from 0.23 to
 /// 0.29 s, and of the 20-drone stress mission (8,986 places) from 37 to
 /// 30 MB and from 0.15 to 0.18 s; at 20,000 and 40,000 places, where a
-/// matrix would be 50 and 200 MB, runs are a third and half of it.
+/// matrix would be 50 and 200 MB, the distinct rows hold 0.42 and 1.35
+/// million runs, 3.3 and 10.8 MB.
 const MATRIX_UP_TO: usize = 4_096;
 
 /// A symmetric relation over places.
