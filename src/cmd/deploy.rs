@@ -122,7 +122,7 @@ pub fn run(args: Args) -> ExitCode {
         fleet,
         ..
     } = loaded;
-    mission::give_back_freed_memory();
+    crate::memory::give_back_freed_memory();
     let key = match rollout::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),

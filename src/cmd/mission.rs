@@ -115,24 +115,8 @@ pub fn load_to_fly(
 ) -> Result<Mission, ExitCode> {
     let read = read(mission, fleet, colour)?;
     preflight(&read, allow_findings, colour)?;
-    give_back_freed_memory();
+    crate::memory::give_back_freed_memory();
     cut(read)
-}
-
-/// Returns to the system the heap that the compile and the check freed:
-/// called by a command that flies once it has dropped what the flight does
-/// not need of its [`Mission`] (the net above all). glibc keeps freed
-/// memory for the process to reuse, and the flight reuses little of it: a
-/// ground station of 250 drones held the check's 15 MB resident for the
-/// whole flight. Called right after the check instead, it left the net's
-/// memory resident: 34 MB while flying against 23.
-pub fn give_back_freed_memory() {
-    #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: `malloc_trim` only hands free pages of the heap back to the
-    // system; it may be called at any time, from any thread.
-    unsafe {
-        libc::malloc_trim(0);
-    }
 }
 
 /// Checks the mission with its fleet before it flies. An error finding

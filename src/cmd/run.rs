@@ -152,7 +152,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(f) => f,
         Err(message) => return bad_input(&message),
     };
-    mission::give_back_freed_memory();
+    crate::memory::give_back_freed_memory();
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match eamos_rollout::trusted_key(&fleet) {
