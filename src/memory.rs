@@ -1,6 +1,6 @@
-//! What a command that flies hands back to the system once the compile and
-//! the check are behind it: the heap they freed, and the program's code
-//! pages they mapped.
+//! What a command that flies hands back to the system at the end of each
+//! phase before the flight: the heap the compile and the check freed, and
+//! the program's code pages that they and the start-up mapped.
 //!
 //! Most of a flying process's resident set is the program's own code,
 //! mapped from its file: the kernel counts every page a process has
@@ -8,6 +8,10 @@
 //! exits. A ground station of 250 drones had mapped 16.5 MB of code by
 //! its flight, a third of it the parser's, the net compiler's and the
 //! checker's, which the flight never runs again.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use eamos_exec::event::{Event, Kind, Sink};
 
 /// Returns to the system what the compile and the check no longer use:
 /// called by a command that flies once it has dropped what the flight does
@@ -81,6 +85,36 @@ pub fn release_code_pages() {
 #[cfg(not(all(target_os = "linux", target_env = "gnu")))]
 pub fn release_code_pages() {}
 
+/// Does something once the flight is under way: when each of `executors`
+/// has said it started. `eamos run` releases the code pages again then
+/// ([`release_code_pages`]): starting up (the links, the peers'
+/// liveliness, a router's sessions) runs code the flight does not run
+/// again; a ground station of 250 drones flew at 16.6-18.4 MB instead of
+/// 21.4.
+pub struct OnceStarted<F> {
+    waiting: AtomicUsize,
+    then: F,
+}
+
+impl<F: Fn() + Send + Sync> OnceStarted<F> {
+    pub fn new(executors: usize, then: F) -> Self {
+        Self {
+            waiting: AtomicUsize::new(executors),
+            then,
+        }
+    }
+}
+
+impl<F: Fn() + Send + Sync> Sink for OnceStarted<F> {
+    fn event(&self, e: &Event) {
+        if matches!(e.kind, Kind::Started { .. })
+            && self.waiting.fetch_sub(1, Ordering::Relaxed) == 1
+        {
+            (self.then)();
+        }
+    }
+}
+
 /// The pages that lie wholly inside a segment of `size` bytes at `address`:
 /// a page shared with a neighbouring segment is not this one's to release.
 fn whole_pages(address: u64, size: u64, page: usize) -> (usize, usize) {
@@ -94,6 +128,45 @@ fn whole_pages(address: u64, size: u64, page: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn at(kind: Kind) -> Event {
+        Event {
+            time: 0.0,
+            drone: "D1".into(),
+            kind,
+        }
+    }
+
+    fn started() -> Event {
+        at(Kind::Started {
+            mission: "M".into(),
+            mission_id: "M-1".into(),
+            places: 1,
+            transitions: 1,
+            bridges_in: 0,
+            bridges_out: 0,
+        })
+    }
+
+    #[test]
+    fn it_acts_once_every_executor_has_started_and_never_again() {
+        let acted = AtomicUsize::new(0);
+        let sink = OnceStarted::new(3, || {
+            acted.fetch_add(1, Ordering::Relaxed);
+        });
+        sink.event(&started());
+        sink.event(&at(Kind::MissionEnded { by: "D1".into() }));
+        sink.event(&started());
+        assert_eq!(
+            acted.load(Ordering::Relaxed),
+            0,
+            "one executor still starting"
+        );
+        sink.event(&started());
+        assert_eq!(acted.load(Ordering::Relaxed), 1);
+        sink.event(&started());
+        assert_eq!(acted.load(Ordering::Relaxed), 1, "once");
+    }
 
     #[test]
     fn only_pages_wholly_inside_a_segment_are_released() {

@@ -180,13 +180,17 @@ pub fn run(args: Args) -> ExitCode {
         )
         .try_init();
     let (events, events_rx) = Channel::new();
-    let events: Arc<dyn eamos_exec::event::Sink> = match &monitor {
-        Some(m) => Arc::new(eamos_exec::event::Tee::new(vec![
-            Arc::new(events),
-            Arc::new(m.feed.clone()),
-        ])),
-        None => Arc::new(events),
-    };
+    let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![
+        Arc::new(events),
+        Arc::new(crate::memory::OnceStarted::new(
+            flown.len(),
+            crate::memory::release_code_pages,
+        )),
+    ];
+    if let Some(m) = &monitor {
+        sinks.push(Arc::new(m.feed.clone()));
+    }
+    let events: Arc<dyn eamos_exec::event::Sink> = Arc::new(eamos_exec::event::Tee::new(sinks));
     let options = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
