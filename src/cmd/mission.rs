@@ -105,8 +105,11 @@ pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
 /// and `deploy` read before they fly anything. The check runs before the
 /// slices exist, so that its memory and theirs are not held at once (a
 /// ground station of 250 drones peaked at the check, with every drone's
-/// slice beside it), and what it freed goes back to the system before the
-/// cut (0.4-0.5 MB off that ground station's peak).
+/// slice beside it). Between the phases, what the one before freed and
+/// the code it ran go back to the system (see
+/// [`crate::memory::give_back_freed_memory`]): the ground station of 250
+/// drones compiles, checks and cuts in 17.4-17.9 MiB instead of
+/// 19.8-20.6.
 pub fn load_to_fly(
     mission: &Path,
     fleet: Option<&Path>,
@@ -114,6 +117,7 @@ pub fn load_to_fly(
     allow_findings: bool,
 ) -> Result<Mission, ExitCode> {
     let read = read(mission, fleet, colour)?;
+    crate::memory::give_back_freed_memory();
     preflight(&read, allow_findings, colour)?;
     crate::memory::give_back_freed_memory();
     cut(read)
