@@ -56,6 +56,10 @@ pub struct FleetRun {
     /// to the machine), sampled likewise: largest drone, median drone.
     pub drone_pss_max_kib: u64,
     pub drone_pss_median_kib: u64,
+    /// Peak resident set in KiB of the zenoh router (`eamos router`),
+    /// read from the kernel before it is stopped (0: not measured). It
+    /// runs on the ground and carries every frame of the fleet.
+    pub router_kib: u64,
     /// Compiling and cutting the slices once, before the launch.
     pub cut: Duration,
     /// The loopback interface's traffic over the flight (from the launch
@@ -370,6 +374,13 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         _ => None,
     };
     drop(peers);
+    // Started without GNU `time`: its peak is read before it is stopped.
+    let router_kib = router
+        .0
+        .first()
+        .and_then(|r| status(r.id()))
+        .and_then(|s| status_kib(&s, "VmHWM:"))
+        .unwrap_or(0);
     drop(router);
     let said = std::fs::read_to_string(&gcs_log).unwrap_or_default();
     let completed = statuses.iter().all(|s| s.is_some_and(|s| s.success()))
@@ -397,6 +408,7 @@ pub fn measure(exe: &Path, dir: &Path, drones: usize) -> Result<FleetRun, String
         gcs_kib: peak_kib(&peak("GCS")),
         drone_pss_max_kib: pss.last().copied().unwrap_or(0),
         drone_pss_median_kib: pss.get(pss.len() / 2).copied().unwrap_or(0),
+        router_kib,
         cut,
         loopback: traffic,
     })

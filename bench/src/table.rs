@@ -752,6 +752,10 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
             mem(f.gcs_flying_kib),
         ),
         row(
+            format!("{what}: peak memory of the zenoh router (`eamos router`, on the ground: every frame of the fleet goes through it; not one of the fleet's processes)"),
+            mem(f.router_kib),
+        ),
+        row(
             format!("{what}: peak proportional memory per drone (sampled; shared pages divided among the processes that map them)"),
             format!(
                 "largest {}, median {}",
