@@ -5,7 +5,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 mod cmd;
-mod memory;
+mod phases;
 
 /// Compile multidrone missions into coloured Petri nets, prove them, slice
 /// them per drone and fly them.

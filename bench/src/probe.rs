@@ -59,7 +59,8 @@ fn probe_compile(file: &Path) -> Result<String, String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
     let source = SourceFile::new(file.display().to_string(), text);
-    let compiled = workload::compile(&source, &eamos_profile::builtin())?;
+    let profiles = eamos_profile::builtin();
+    let compiled = workload::compile_in_phases(&source, &profiles, eamos_trim::after_phase)?;
     std::hint::black_box(&compiled);
     // Compiled is when the slices exist; the process exits right after
     // saying so. Freeing the mission, its net and its slices first (a
@@ -69,8 +70,8 @@ fn probe_compile(file: &Path) -> Result<String, String> {
     Ok(String::new())
 }
 
-/// Checks a mission as the `check` benchmark does; says how far the proof
-/// went (JSON).
+/// Checks a mission as `eamos check` does; says how far the proof went
+/// (JSON).
 fn probe_check(file: &Path) -> Result<String, String> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| format!("cannot read {}: {e}", file.display()))?;
@@ -78,6 +79,10 @@ fn probe_check(file: &Path) -> Result<String, String> {
     let profiles = eamos_profile::builtin();
     let mission = workload::front_end(&source, &profiles)?;
     let net = eamos_petri::compile(&mission, &profiles);
+    // As `eamos check` does: the checked mission, the front end's and the
+    // net compiler's code are let go before the check.
+    drop(mission);
+    eamos_trim::after_phase();
     let options = eamos_verify::Options {
         max_memory_mb: workload::CHECK_MEMORY_MB,
         ..eamos_verify::Options::default()

@@ -103,7 +103,19 @@ pub fn front_end(source: &SourceFile, profiles: &ProfileTable) -> Result<hir::Mi
 
 /// Parse, net, slices: what `eamos build` does before writing files.
 pub fn compile(source: &SourceFile, profiles: &ProfileTable) -> Result<Compiled, String> {
+    compile_in_phases(source, profiles, || ())
+}
+
+/// [`compile`], calling `between` once the front end is done and before
+/// the net is built: a process of its own hands back there what the
+/// front end held ([`eamos_trim::after_phase`]), as `eamos build` does.
+pub fn compile_in_phases(
+    source: &SourceFile,
+    profiles: &ProfileTable,
+    between: impl FnOnce(),
+) -> Result<Compiled, String> {
     let mission = front_end(source, profiles)?;
+    between();
     let net = eamos_petri::compile(&mission, profiles);
     drop(mission);
     let slices = eamos_slicer::slice(net).map_err(|e| e.to_string())?;

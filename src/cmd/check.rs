@@ -129,8 +129,10 @@ pub fn run(args: Args) -> ExitCode {
                 }
                 let net = eamos_petri::compile(&compiled.mission, &profiles);
                 // The checker reads the net: the checked mission is freed
-                // before it runs, not held through it.
+                // before it runs, not held through it, and so is what the
+                // front end and the net compiler ran.
                 drop(compiled);
+                eamos_trim::after_phase();
                 let fleet = match &args.fleet {
                     Some(path) => match eamos_fleet::Fleet::load(path, &net.name, &net.drones) {
                         Ok(f) => f,

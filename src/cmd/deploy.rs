@@ -122,7 +122,7 @@ pub fn run(args: Args) -> ExitCode {
         fleet,
         ..
     } = loaded;
-    crate::memory::give_back_freed_memory();
+    eamos_trim::after_phase();
     let key = match rollout::ground_key(&fleet, args.key.as_deref()) {
         Ok(k) => k,
         Err(e) => return bad_input(&e),

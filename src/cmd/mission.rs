@@ -107,7 +107,7 @@ pub fn space(fleet: &Fleet, drones: &[String]) -> eamos_verify::Space {
 /// ground station of 250 drones peaked at the check, with every drone's
 /// slice beside it). Between the phases, what the one before freed and
 /// the code it ran go back to the system (see
-/// [`crate::memory::give_back_freed_memory`]): the ground station of 250
+/// [`eamos_trim::after_phase`]): the ground station of 250
 /// drones compiles, checks and cuts in 17.4-17.9 MiB instead of
 /// 19.8-20.6.
 pub fn load_to_fly(
@@ -117,9 +117,9 @@ pub fn load_to_fly(
     allow_findings: bool,
 ) -> Result<Mission, ExitCode> {
     let read = read(mission, fleet, colour)?;
-    crate::memory::give_back_freed_memory();
+    eamos_trim::after_phase();
     preflight(&read, allow_findings, colour)?;
-    crate::memory::give_back_freed_memory();
+    eamos_trim::after_phase();
     cut(read)
 }
 

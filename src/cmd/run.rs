@@ -152,7 +152,7 @@ pub fn run(args: Args) -> ExitCode {
         Ok(f) => f,
         Err(message) => return bad_input(&message),
     };
-    crate::memory::give_back_freed_memory();
+    eamos_trim::after_phase();
     // With the ground station's public key, abort commands must be sealed
     // by its secret key (`eamos abort --key`).
     let abort_opener = match eamos_rollout::trusted_key(&fleet) {
@@ -182,9 +182,9 @@ pub fn run(args: Args) -> ExitCode {
     let (events, events_rx) = Channel::new();
     let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![
         Arc::new(events),
-        Arc::new(crate::memory::OnceStarted::new(
+        Arc::new(crate::phases::OnceStarted::new(
             flown.len(),
-            crate::memory::release_code_pages,
+            eamos_trim::release_code_pages,
         )),
     ];
     if let Some(m) = &monitor {
