@@ -10,8 +10,8 @@ use eamos_exec::event::{Event, Kind, Sink};
 /// has said it started. `eamos run` releases the code pages again then
 /// ([`eamos_trim::release_code_pages`]): starting up (the links, the peers'
 /// liveliness, a router's sessions) runs code the flight does not run
-/// again; a ground station of 250 drones flew at 16.6-18.4 MB instead of
-/// 21.4.
+/// again; a ground station of 250 drones flew at 16.5-18.4 MiB instead of
+/// 19.5-20.1.
 pub struct OnceStarted<F> {
     waiting: AtomicUsize,
     then: F,
