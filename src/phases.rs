@@ -2,35 +2,44 @@
 //! system between them ([`eamos_trim`]): after the compile, after the
 //! check, before the flight, and once the flight is under way.
 
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
 
 use eamos_exec::event::{Event, Kind, Sink};
 
-/// Does something once the flight is under way: when each of `executors`
-/// has said it started. `eamos run` releases the code pages again then
-/// ([`eamos_trim::release_code_pages`]): starting up (the links, the peers'
-/// liveliness, a router's sessions) runs code the flight does not run
-/// again; a ground station of 250 drones flew at 16.5-18.4 MiB instead of
-/// 19.5-20.1.
-pub struct OnceStarted<F> {
-    waiting: AtomicUsize,
+/// Does something once a flight is under way: when each of its
+/// `executors` has said it started, and again for the next flight (an
+/// agent flies one after another, one executor each). `eamos run`,
+/// `eamos deploy` and `eamos agent` release the code pages then
+/// ([`eamos_trim::release_code_pages`]): starting up (the links, the
+/// peers' liveliness, a router's sessions) runs code the flight does not
+/// run again; a ground station of 250 drones flew at 16.5-18.4 MiB instead
+/// of 19.5-20.1.
+pub struct FlightStarted<F> {
+    executors: usize,
+    waiting: Mutex<usize>,
     then: F,
 }
 
-impl<F: Fn() + Send + Sync> OnceStarted<F> {
+impl<F: Fn() + Send + Sync> FlightStarted<F> {
     pub fn new(executors: usize, then: F) -> Self {
         Self {
-            waiting: AtomicUsize::new(executors),
+            executors: executors.max(1),
+            waiting: Mutex::new(executors.max(1)),
             then,
         }
     }
 }
 
-impl<F: Fn() + Send + Sync> Sink for OnceStarted<F> {
+impl<F: Fn() + Send + Sync> Sink for FlightStarted<F> {
     fn event(&self, e: &Event) {
-        if matches!(e.kind, Kind::Started { .. })
-            && self.waiting.fetch_sub(1, Ordering::Relaxed) == 1
-        {
+        if !matches!(e.kind, Kind::Started { .. }) {
+            return;
+        }
+        let mut waiting = self.waiting.lock().unwrap_or_else(|p| p.into_inner());
+        *waiting -= 1;
+        if *waiting == 0 {
+            *waiting = self.executors;
+            drop(waiting);
             (self.then)();
         }
     }
@@ -38,6 +47,8 @@ impl<F: Fn() + Send + Sync> Sink for OnceStarted<F> {
 
 #[cfg(test)]
 mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
     use super::*;
 
     fn at(kind: Kind) -> Event {
@@ -60,23 +71,24 @@ mod tests {
     }
 
     #[test]
-    fn it_acts_once_every_executor_has_started_and_never_again() {
+    fn it_acts_when_every_executor_of_a_flight_has_started() {
         let acted = AtomicUsize::new(0);
-        let sink = OnceStarted::new(3, || {
+        let sink = FlightStarted::new(3, || {
             acted.fetch_add(1, Ordering::Relaxed);
         });
+        let acts = || acted.load(Ordering::Relaxed);
         sink.event(&started());
         sink.event(&at(Kind::MissionEnded { by: "D1".into() }));
         sink.event(&started());
-        assert_eq!(
-            acted.load(Ordering::Relaxed),
-            0,
-            "one executor still starting"
-        );
+        assert_eq!(acts(), 0, "one executor still starting");
         sink.event(&started());
-        assert_eq!(acted.load(Ordering::Relaxed), 1);
+        assert_eq!(acts(), 1);
+        // The next flight of three.
         sink.event(&started());
-        assert_eq!(acted.load(Ordering::Relaxed), 1, "once");
+        sink.event(&started());
+        assert_eq!(acts(), 1, "the next flight is still starting");
+        sink.event(&started());
+        assert_eq!(acts(), 2);
     }
 
     /// Resident kilobytes of this program's executable mappings.

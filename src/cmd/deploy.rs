@@ -165,7 +165,7 @@ pub fn run(args: Args) -> ExitCode {
 /// the monitor, if there is one, is fed.
 fn flight_events(monitor: Option<&super::live::Running>) -> Arc<dyn eamos_exec::event::Sink> {
     let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![Arc::new(
-        crate::phases::OnceStarted::new(1, eamos_trim::release_code_pages),
+        crate::phases::FlightStarted::new(1, eamos_trim::release_code_pages),
     )];
     if let Some(m) = monitor {
         sinks.push(Arc::new(m.feed.clone()));

@@ -182,7 +182,7 @@ pub fn run(args: Args) -> ExitCode {
     let (events, events_rx) = Channel::new();
     let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![
         Arc::new(events),
-        Arc::new(crate::phases::OnceStarted::new(
+        Arc::new(crate::phases::FlightStarted::new(
             flown.len(),
             eamos_trim::release_code_pages,
         )),
