@@ -748,7 +748,7 @@ fn fleet_rows(f: &crate::fleet::FleetRun) -> Vec<Row> {
         )
         .goal(format!("≤ {} MB", goal::FLEET_PROCESS_MB), private_met),
         row(
-            format!("{what}: the ground station's resident set while the fleet flies (sampled from the mission's start; its peak above is the compile and the check)"),
+            format!("{what}: the ground station's resident set while the fleet flies (sampled from the mission's start, once the compile and the check are over)"),
             mem(f.gcs_flying_kib),
         ),
         row(
