@@ -2,9 +2,20 @@
 //! system between them ([`eamos_trim`]): after the compile, after the
 //! check, before the flight, and once the flight is under way.
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
-use eamos_exec::event::{Event, Kind, Sink};
+use eamos_exec::event::{Event, Kind, Sink, Tee};
+
+/// The sink a flight's events go to: `sinks`, and the release of the
+/// program's code pages once each of the flight's `executors` has started
+/// (see [`FlightStarted`]).
+pub fn releasing_once_started(executors: usize, mut sinks: Vec<Arc<dyn Sink>>) -> Arc<dyn Sink> {
+    sinks.push(Arc::new(FlightStarted::new(
+        executors,
+        eamos_trim::release_code_pages,
+    )));
+    Arc::new(Tee::new(sinks))
+}
 
 /// Does something once a flight is under way: when each of its
 /// `executors` has said it started, and again for the next flight (an

@@ -108,11 +108,10 @@ pub fn run(args: Args) -> ExitCode {
             }
             completed
         });
-        // Each flight lets go of the start-up's code once it is under way,
-        // as `eamos run` does.
-        let released = crate::phases::FlightStarted::new(1, eamos_trim::release_code_pages);
-        let events = eamos_exec::event::Tee::new(vec![Arc::new(events), Arc::new(released)]);
-        let r = rollout::run_agent(config, Arc::new(events), stop).await;
+        // Each flight (one executor) lets go of the start-up's code once
+        // it is under way, as `eamos run` does.
+        let events = crate::phases::releasing_once_started(1, vec![Arc::new(events)]);
+        let r = rollout::run_agent(config, events, stop).await;
         let completed = printer.await.unwrap_or(false);
         r.map(|()| completed)
     });

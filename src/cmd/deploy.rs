@@ -138,7 +138,14 @@ pub fn run(args: Args) -> ExitCode {
         out,
         source: Some(Arc::new(source)),
         startup_timeout: Duration::from_secs_f64(args.startup_timeout),
-        events: Some(flight_events(monitor.as_ref().map(|(m, _)| m))),
+        // Its one executor: the ground station's.
+        events: Some(crate::phases::releasing_once_started(
+            1,
+            monitor
+                .iter()
+                .map(|(m, _)| Arc::new(m.feed.clone()) as Arc<dyn eamos_exec::event::Sink>)
+                .collect(),
+        )),
         ..RunOptions::default()
     };
     println!(
@@ -158,19 +165,6 @@ pub fn run(args: Args) -> ExitCode {
         });
     }
     status
-}
-
-/// What hears the ground station's flight besides its log: the code pages
-/// are released once its executor has started, as `eamos run` does, and
-/// the monitor, if there is one, is fed.
-fn flight_events(monitor: Option<&super::live::Running>) -> Arc<dyn eamos_exec::event::Sink> {
-    let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![Arc::new(
-        crate::phases::FlightStarted::new(1, eamos_trim::release_code_pages),
-    )];
-    if let Some(m) = monitor {
-        sinks.push(Arc::new(m.feed.clone()));
-    }
-    Arc::new(eamos_exec::event::Tee::new(sinks))
 }
 
 /// Delivers the slices, starts the mission and flies the ground station's

@@ -180,17 +180,11 @@ pub fn run(args: Args) -> ExitCode {
         )
         .try_init();
     let (events, events_rx) = Channel::new();
-    let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![
-        Arc::new(events),
-        Arc::new(crate::phases::FlightStarted::new(
-            flown.len(),
-            eamos_trim::release_code_pages,
-        )),
-    ];
+    let mut sinks: Vec<Arc<dyn eamos_exec::event::Sink>> = vec![Arc::new(events)];
     if let Some(m) = &monitor {
         sinks.push(Arc::new(m.feed.clone()));
     }
-    let events: Arc<dyn eamos_exec::event::Sink> = Arc::new(eamos_exec::event::Tee::new(sinks));
+    let events = crate::phases::releasing_once_started(flown.len(), sinks);
     let options = RunOptions {
         speed: args.speed,
         max_duration: args.max_duration,
