@@ -777,18 +777,22 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     let n_all = net.n_all();
     let mut cursor = 0usize;
     let mut chunk = 64usize;
+    // Room for the expansions done on this thread, made once: a frontier of
+    // a few markings at a time is common (one successor a marking under
+    // stubborn sets), and zeroing three vectors as long as the net's
+    // transitions for each cost a tenth of the exploration at 1,000 drones.
+    let mut own = (Scratch::new(n_all, words), vec![0; words]);
     'outer: loop {
         while cursor < ex.store.len() {
             let hi = ex.store.len().min(cursor + chunk);
             let store = &ex.store;
             let reduction = cfg.reduction;
             let results: Vec<Expanded> = if hi - cursor < 32 {
-                let mut s = Scratch::new(n_all, words);
-                let mut m = vec![0; words];
+                let (s, m) = &mut own;
                 (cursor..hi)
                     .map(|id| {
-                        store.marking_into(id as u32, &mut m);
-                        expand::<E>(net, reduction, &mut s, &m)
+                        store.marking_into(id as u32, m);
+                        expand::<E>(net, reduction, s, m)
                     })
                     .collect()
             } else {
@@ -838,9 +842,8 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
         if ignoring.is_empty() {
             break;
         }
-        let mut s = Scratch::new(n_all, words);
         for id in ignoring {
-            let r = expand::<E>(net, false, &mut s, &ex.store.marking(id));
+            let r = expand::<E>(net, false, &mut own.0, &ex.store.marking(id));
             ex.fully[id as usize] = true;
             if let Err(stop) = absorb::<E>(&mut ex, net, id, r, Some(&mut extra)) {
                 ex.stop = Some(stop);
