@@ -1,5 +1,7 @@
 //! A symmetric relation over places, row by row: bits, or for a large
-//! net the runs of consecutive places related to each place.
+//! net the runs of consecutive places related to each place. (The
+//! concurrency relation holds it over classes of places, `structural.rs`;
+//! what is said here of places holds of those classes.)
 //!
 //! The concurrency relation (`structural.rs`) relates 6-8 % of all pairs
 //! of places of a generated mission, a number quadratic in its size: as a
