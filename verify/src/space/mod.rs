@@ -21,6 +21,7 @@
 //! running in any reachable marking, so their monitor never fires).
 
 pub(crate) mod airspace;
+mod block;
 pub(crate) mod flight;
 pub(crate) mod model;
 mod near;

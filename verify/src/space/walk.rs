@@ -17,6 +17,8 @@
 //! of that drone's actions and leads only to its join: it takes the branch
 //! as come to its end. Going down every drone's branch made each walk cross
 //! the whole mission, the spatial check's work the square of the fleet's.
+//! Which branches those are, for each drone, is worked out once per block
+//! (`block.rs`).
 //!
 //! Loop counters are followed exactly where a `RepeatFor` guard reads them
 //! (so a body flown three times is flown three times, not for ever); a
@@ -31,14 +33,18 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use eamos_petri::net::{Colour, ColourOp, Net, NodeId, PlaceKind, TransitionKind};
 
+use super::block::{Crossing, Out, Waits};
+
 pub(crate) struct Walker<'n> {
     net: &'n Net,
     /// Counters saturate here.
     cap: u32,
     /// The fork that opened each join's block.
     fork_of: HashMap<NodeId, NodeId>,
-    /// Each branch of each block, by its fork and the place it starts at.
-    branches: HashMap<(NodeId, NodeId), Branch>,
+    /// How a walk for a drone crosses each block (`block.rs`): by fork,
+    /// the branches it goes down; by join, the ends it waits for.
+    crossings: HashMap<NodeId, Crossing>,
+    waits: HashMap<NodeId, Waits>,
 }
 
 /// One branch of a `PAR_` block, from its fork to its join.
@@ -94,22 +100,43 @@ impl<'n> Walker<'n> {
             net,
             cap,
             fork_of,
-            branches: HashMap::default(),
+            crossings: HashMap::default(),
+            waits: HashMap::default(),
         };
-        walker.branches = walker.branches();
+        walker.blocks();
         walker
     }
 
     /// Every branch of every block, followed structurally from its fork
-    /// to its join.
-    fn branches(&self) -> HashMap<(NodeId, NodeId), Branch> {
-        let mut out = HashMap::default();
+    /// to its join, and what a walk for each drone does with them.
+    fn blocks(&mut self) {
         for (&join, &fork) in &self.fork_of {
-            for (start, _) in self.flow_out(fork) {
-                out.insert((fork, start), self.branch(fork, join, start));
+            let mut outs = Vec::new();
+            let mut ended: HashMap<NodeId, BTreeSet<u16>> = HashMap::default();
+            for (start, op) in self.flow_out(fork) {
+                let b = self.branch(fork, join, start);
+                let closed = b.closed.then(|| (b.drones.clone(), b.join));
+                if b.closed {
+                    for &q in &b.ends {
+                        let drones = ended.entry(q).or_insert_with(|| b.drones.clone());
+                        drones.retain(|d| b.drones.contains(d));
+                    }
+                }
+                outs.push(Out {
+                    place: start,
+                    op,
+                    closed,
+                });
             }
+            let inputs = self
+                .net
+                .preset(join)
+                .filter(|&q| self.followed(q))
+                .map(|q| (q, ended.remove(&q)));
+            let waits = Waits::new(inputs);
+            self.crossings.insert(fork, Crossing::new(outs));
+            self.waits.insert(join, waits);
         }
-        out
     }
 
     fn branch(&self, fork: NodeId, join: NodeId, start: NodeId) -> Branch {
@@ -259,35 +286,39 @@ impl<'n> Walker<'n> {
                     // not looked up once per branch (for every walk across
                     // a fleet-wide block, 499 lookups of one key and the
                     // colours of 499 places: a fifth of a 500-drone check).
-                    let mut joined: Option<(NodeId, ColourOp)> = None;
-                    for (q, op) in self.flow_out(t) {
-                        match self.skipped(t, q, drone) {
-                            // As if the walk had come down the branch to
-                            // the join with the token it set out with.
-                            Some(b) => {
-                                visited.extend(b.ends.iter().copied());
-                                if joined == Some((b.join, op)) {
-                                    continue;
-                                }
-                                joined = Some((b.join, op));
-                                let c = self.colour(op.apply(&c), colours);
-                                if queued.insert((b.join, c.clone(), cut)) {
-                                    waiting.push((b.join, c, cut));
-                                }
-                            }
-                            None => stack.push((q, self.colour(op.apply(&c), colours), cut)),
+                    let crossing = drone.zip(self.crossings.get(&t));
+                    let Some((d, crossing)) = crossing else {
+                        for (q, op) in self.flow_out(t) {
+                            stack.push((q, self.colour(op.apply(&c), colours), cut));
+                        }
+                        continue;
+                    };
+                    for (q, op) in crossing.down(d) {
+                        stack.push((q, self.colour(op.apply(&c), colours), cut));
+                    }
+                    // As if the walk had come down each other branch to
+                    // the join with the token it set out with.
+                    for (join, op) in crossing.skipped(d) {
+                        let c = self.colour(op.apply(&c), colours);
+                        if queued.insert((join, c.clone(), cut)) {
+                            waiting.push((join, c, cut));
                         }
                     }
                 }
             }
             // Joins whose block the walk opened go on once every branch
             // of it has come to its end.
-            let (ready, still): (Vec<_>, Vec<_>) = waiting.drain(..).partition(|(t, _, _)| {
-                self.net
-                    .preset(*t)
-                    .filter(|&q| self.followed(q))
-                    .all(|q| visited.contains(&q))
-            });
+            let (ready, still): (Vec<_>, Vec<_>) =
+                waiting
+                    .drain(..)
+                    .partition(|(t, _, _)| match drone.zip(self.waits.get(t)) {
+                        Some((d, waits)) => waits.of(d).all(|q| visited.contains(&q)),
+                        None => self
+                            .net
+                            .preset(*t)
+                            .filter(|&q| self.followed(q))
+                            .all(|q| visited.contains(&q)),
+                    });
             waiting = still;
             if ready.is_empty() {
                 break;
@@ -301,18 +332,6 @@ impl<'n> Walker<'n> {
             }
         }
         Ok(reach)
-    }
-
-    /// The branch of block `fork` starting at `start`, if a walk for
-    /// `drone` need not go down it: no action of the drone's is in it, so
-    /// no stop is, and it leads only to its join, which the walk may then
-    /// pass as if the branch had come to its end. The walk of a drone that
-    /// crossed a block went down every other drone's branch only to be let
-    /// through the join: each walk through the whole mission, the spatial
-    /// check's work the square of the fleet's size.
-    fn skipped(&self, fork: NodeId, start: NodeId, drone: Option<u16>) -> Option<&Branch> {
-        let b = self.branches.get(&(fork, start))?;
-        (b.closed && !b.drones.contains(&drone?)).then_some(b)
     }
 
     /// Walks on from where the transitions `via` (the ends of one action,
@@ -416,6 +435,28 @@ mod tests {
             .collect()
     }
 
+    /// Walks for drone `drone` (every drone's branches: `None`) from where
+    /// the first drone's takeoff ends to its next actions: their labels,
+    /// sorted, and the steps the walk took.
+    fn from_takeoff(net: &Net, drone: Option<u16>) -> (Vec<String>, usize) {
+        let walker = Walker::new(net);
+        let b = starts(net, 0);
+        let label = |t: NodeId| net.transition(t).unwrap().label.to_string();
+        let takeoff = *b
+            .iter()
+            .find(|&&t| label(t).contains("Takeoff"))
+            .expect("the first drone's takeoff");
+        let mut budget = usize::MAX;
+        let stop = |t: NodeId| b.contains(&t) && t != takeoff;
+        let seeds = walker.after(takeoff, &[], true);
+        let reach = walker
+            .walk(seeds, drone, &stop, true, &|_| false, None, &mut budget)
+            .unwrap();
+        let mut labels: Vec<String> = reach.stops.iter().map(|(t, _)| label(*t)).collect();
+        labels.sort();
+        (labels, usize::MAX - budget)
+    }
+
     /// B takes off, C and E fly a block of their own, then B flies on: B's
     /// walk from its takeoff passes the block's join without going down
     /// C's long branch, and finds the same next actions.
@@ -429,32 +470,8 @@ mod tests {
         }
         text += "\tC.Land()\n}\n";
         let net = net(&text);
-        let walker = Walker::new(&net);
-        let b = starts(&net, 0);
-        let takeoff = *b
-            .iter()
-            .find(|&&t| {
-                net.transition(t)
-                    .is_some_and(|t| t.label.contains("Takeoff"))
-            })
-            .expect("B's takeoff");
-        let walk = |drone: Option<u16>| {
-            let mut budget = usize::MAX;
-            let stop = |t: NodeId| b.contains(&t) && t != takeoff;
-            let seeds = walker.after(takeoff, &[], true);
-            let reach = walker
-                .walk(seeds, drone, &stop, true, &|_| false, None, &mut budget)
-                .unwrap();
-            let mut labels: Vec<String> = reach
-                .stops
-                .iter()
-                .map(|(t, _)| net.transition(*t).unwrap().label.to_string())
-                .collect();
-            labels.sort();
-            (labels, usize::MAX - budget)
-        };
-        let (every_branch, long) = walk(None);
-        let (own_branches, short) = walk(Some(0));
+        let (every_branch, long) = from_takeoff(&net, None);
+        let (own_branches, short) = from_takeoff(&net, Some(0));
         assert_eq!(own_branches, every_branch);
         assert!(
             own_branches.iter().any(|l| l.contains("FlyTo")),
@@ -464,5 +481,19 @@ mod tests {
             short * 4 < long,
             "B's walk took {short} steps, going down C's branch {long}"
         );
+    }
+
+    /// B has a branch of its own in a block beside C's and E's: B's walk
+    /// from its takeoff goes down it to B's next action and not past the
+    /// join, which waits for B's branch although C's and E's are taken as
+    /// come to their end.
+    #[test]
+    fn a_join_waits_for_the_branches_of_the_drone_walked() {
+        let text = "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_All()\n\tB.Land()\n}\n\nfunc PAR_All() {\n\tC.Arm()\n\tSEQ_B()\n\tE.Arm()\n}\n\nfunc SEQ_B() {\n\tB.Hover(1)\n\tB.FlyTo(3, 0, 2)\n}\n";
+        let net = net(text);
+        let (own, _) = from_takeoff(&net, Some(0));
+        assert_eq!(own, from_takeoff(&net, None).0);
+        assert_eq!(own.len(), 1, "{own:?}");
+        assert!(own[0].contains("Hover"), "{own:?}");
     }
 }
