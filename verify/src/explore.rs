@@ -780,7 +780,7 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     // Room for the expansions done on this thread, made once: a frontier of
     // a few markings at a time is common (one successor a marking under
     // stubborn sets), and zeroing three vectors as long as the net's
-    // transitions for each cost a tenth of the exploration at 1,000 drones.
+    // transitions for each cost a sixth of the exploration at 1,000 drones.
     let mut own = (Scratch::new(n_all, words), vec![0; words]);
     'outer: loop {
         while cursor < ex.store.len() {
