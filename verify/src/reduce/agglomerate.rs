@@ -94,29 +94,33 @@ fn candidates(w: &Work, p: u32) -> Option<(Vec<u32>, Vec<u32>)> {
     if !w.readers[pi].is_empty() {
         return None;
     }
-    let hs = w.producers[pi].clone();
-    let fs = w.consumers[pi].clone();
+    let (hs, fs) = (&w.producers[pi], &w.consumers[pi]);
     if hs.is_empty() || fs.is_empty() || (hs.len() > 1 && fs.len() > 1) {
         return None;
     }
     if hs.iter().any(|h| fs.contains(h)) {
         return None;
     }
-    for &h in &hs {
-        let tr = w.tr(h)?;
-        if tr.arcs.post.iter().find(|&&(q, _)| q == p) != Some(&(p, 1)) {
-            return None;
-        }
-    }
-    for &f in &fs {
+    // The consumers first: their test is short, a producer's is as long
+    // as its outputs. The outputs of a fork over the fleet are tried again
+    // each time one of them is fused (the fork's arcs change), and most
+    // fail on their consumer (an action's start reads more than its
+    // place): testing the fork first read 4 billion arcs at 1,000 drones.
+    for &f in fs {
         let tr = w.tr(f)?;
         if tr.arcs.pre.as_slice() != [(p, 1)] || !tr.arcs.read.is_empty() {
             return None;
         }
     }
-    for &h in &hs {
+    for &h in hs {
+        let tr = w.tr(h)?;
+        if tr.arcs.post.iter().find(|&&(q, _)| q == p) != Some(&(p, 1)) {
+            return None;
+        }
+    }
+    for &h in hs {
         let h_post = &w.tr(h)?.arcs.post;
-        for &f in &fs {
+        for &f in fs {
             let f_post = &w.tr(f)?.arcs.post;
             let shared = h_post
                 .iter()
@@ -126,5 +130,5 @@ fn candidates(w: &Work, p: u32) -> Option<(Vec<u32>, Vec<u32>)> {
             }
         }
     }
-    Some((hs, fs))
+    Some((hs.clone(), fs.clone()))
 }
