@@ -280,12 +280,11 @@ impl<'n> Walker<'n> {
                         _ => {}
                     }
                     let cut = cut.filter(|&r| !self.starts_region(t, r));
-                    // The branches of one block skipped here all meet its
-                    // join, with the token's colour after their arc's
-                    // colour function: queued once per colour function,
-                    // not looked up once per branch (for every walk across
-                    // a fleet-wide block, 499 lookups of one key and the
-                    // colours of 499 places: a fifth of a 500-drone check).
+                    // A walk for one drone across a block goes down its
+                    // drone's branches and the open ones; the others all
+                    // meet the join, with the token's colour after their
+                    // arc's colour function: the join is queued once per
+                    // colour function, not once per branch (`block.rs`).
                     let crossing = drone.zip(self.crossings.get(&t));
                     let Some((d, crossing)) = crossing else {
                         for (q, op) in self.flow_out(t) {
