@@ -15,7 +15,8 @@
 //!
 //! The invariants come from the Farkas algorithm (one column of `C`
 //! eliminated at a time, cheapest first), which can grow without bound:
-//! past [`MAX_ROWS`] rows it gives up and nothing is claimed. Only
+//! past [`MAX_ROWS`] rows, or [`MAX_COMPARISONS`] comparisons of a new
+//! row with the rows kept, it gives up and nothing is claimed. Only
 //! invariants that a 1-safe marking can be held to as clauses are used:
 //! 0/1 coefficients summing to 0 or 1 tokens.
 
