@@ -96,6 +96,9 @@ impl ClassArcs {
 /// (a drone's places stay together), and how many.
 fn chains(net: &PtNet) -> (Vec<u32>, usize) {
     let n = net.n_places();
+    // Arcs counted over the real transitions, produce arcs each one:
+    // `PtNet::producers` leaves out a transition that puts back what it
+    // takes, which the rules count as producing it.
     let mut consumed = vec![0u32; n];
     let mut produced = vec![0u32; n];
     let mut read = vec![false; n];

@@ -20,95 +20,100 @@ use eamos_petri::net::{ColourOp, NodeId};
 pub(crate) struct Crossing {
     /// Where the fork puts its tokens, with each arc's colour function.
     outs: Vec<(NodeId, ColourOp)>,
+    /// The block's join, which every closed branch meets.
+    join: NodeId,
     /// The outputs a walk goes down whoever it is for.
     always: Vec<u32>,
-    /// The outputs that start a branch closed on its join, by each drone
-    /// with an action in the branch.
+    /// The outputs that start a branch closed on the join, by each drone
+    /// with an action in the branch, in order.
     own: HashMap<u16, Vec<u32>>,
-    /// The closed branches, by the join they meet and the colour function
-    /// of their arc: (join, function, outputs in order).
-    groups: Vec<(NodeId, ColourOp, Vec<u32>)>,
-    /// The drones of each output's branch, if it is closed.
-    drones: Vec<Option<BTreeSet<u16>>>,
+    /// The closed branches by the colour function of their arc, in the
+    /// order of the first: (function, outputs in order).
+    groups: Vec<(ColourOp, Vec<u32>)>,
 }
 
 /// One output of a fork: where it puts the token, with which colour
 /// function, and if it starts a branch closed on the block's join, the
-/// branch's drones and join.
+/// branch's drones.
 pub(crate) struct Out {
     pub place: NodeId,
     pub op: ColourOp,
-    pub closed: Option<(BTreeSet<u16>, NodeId)>,
+    pub closed: Option<BTreeSet<u16>>,
 }
 
 impl Crossing {
-    pub(crate) fn new(outs: Vec<Out>) -> Self {
+    pub(crate) fn new(join: NodeId, outs: Vec<Out>) -> Self {
         let mut c = Crossing {
             outs: Vec::with_capacity(outs.len()),
+            join,
             always: Vec::new(),
             own: HashMap::default(),
             groups: Vec::new(),
-            drones: Vec::with_capacity(outs.len()),
         };
         for (i, out) in outs.into_iter().enumerate() {
             let i = i as u32;
             c.outs.push((out.place, out.op));
-            match out.closed {
-                None => {
-                    c.always.push(i);
-                    c.drones.push(None);
-                }
-                Some((drones, join)) => {
-                    for &d in &drones {
-                        c.own.entry(d).or_default().push(i);
-                    }
-                    match c.groups.iter_mut().find(|g| g.0 == join && g.1 == out.op) {
-                        Some(g) => g.2.push(i),
-                        None => c.groups.push((join, out.op, vec![i])),
-                    }
-                    c.drones.push(Some(drones));
-                }
+            let Some(drones) = out.closed else {
+                c.always.push(i);
+                continue;
+            };
+            for d in drones {
+                c.own.entry(d).or_default().push(i);
+            }
+            match c.groups.iter_mut().find(|g| g.0 == out.op) {
+                Some(g) => g.1.push(i),
+                None => c.groups.push((out.op, vec![i])),
             }
         }
         c
     }
 
-    /// The outputs a walk for `drone` goes down, in the fork's order.
-    pub(crate) fn down(&self, drone: u16) -> Vec<(NodeId, ColourOp)> {
-        let own = self.own.get(&drone).map_or(&[][..], |v| v.as_slice());
-        let mut picked = Vec::with_capacity(self.always.len() + own.len());
-        let (mut i, mut j) = (0, 0);
-        while i < self.always.len() || j < own.len() {
-            let next = if j == own.len() || (i < self.always.len() && self.always[i] < own[j]) {
-                i += 1;
-                self.always[i - 1]
-            } else {
-                j += 1;
-                own[j - 1]
-            };
-            picked.push(self.outs[next as usize]);
-        }
-        picked
+    fn own(&self, drone: u16) -> &[u32] {
+        self.own.get(&drone).map_or(&[], |v| v.as_slice())
     }
 
-    /// The joins, with the colour function of the arcs into their
+    /// The outputs a walk for `drone` goes down, in the fork's order.
+    pub(crate) fn down(&self, drone: u16) -> impl Iterator<Item = (NodeId, ColourOp)> + '_ {
+        let (always, own) = (&self.always, self.own(drone));
+        let (mut i, mut j) = (0, 0);
+        std::iter::from_fn(move || {
+            let next = match (always.get(i), own.get(j)) {
+                (Some(&a), Some(&o)) if a < o => {
+                    i += 1;
+                    a
+                }
+                (_, Some(&o)) => {
+                    j += 1;
+                    o
+                }
+                (Some(&a), None) => {
+                    i += 1;
+                    a
+                }
+                (None, None) => return None,
+            };
+            Some(self.outs[next as usize])
+        })
+    }
+
+    /// The join, with the colour function of the arcs into their
     /// branches, that the branches a walk for `drone` does not go down
-    /// meet: in the order of the first such branch of each.
+    /// meet: once per function, in the order of the first such branch.
     pub(crate) fn skipped(&self, drone: u16) -> Vec<(NodeId, ColourOp)> {
-        let mut firsts: Vec<(u32, NodeId, ColourOp)> = self
+        let own = self.own(drone);
+        let mut firsts: Vec<(u32, ColourOp)> = self
             .groups
             .iter()
-            .filter_map(|(join, op, members)| {
-                let first = members.iter().copied().find(|&i| {
-                    self.drones[i as usize]
-                        .as_ref()
-                        .is_some_and(|d| !d.contains(&drone))
-                })?;
-                Some((first, *join, *op))
+            .filter_map(|(op, members)| {
+                let first = members
+                    .iter()
+                    .copied()
+                    .find(|i| own.binary_search(i).is_err())?;
+                Some((first, *op))
             })
             .collect();
         firsts.sort_unstable_by_key(|f| f.0);
-        firsts.into_iter().map(|(_, j, op)| (j, op)).collect()
+        firsts.into_iter().map(|(_, op)| (self.join, op)).collect()
     }
 }
 

@@ -52,8 +52,7 @@ pub(crate) struct Walker<'n> {
 struct Branch {
     /// Drones that have an action in it.
     drones: BTreeSet<u16>,
-    /// The block's join, and where the branch meets it.
-    join: NodeId,
+    /// Where the branch meets the block's join.
     ends: Vec<NodeId>,
     /// It leads nowhere but to its join (or to the mission's end): no
     /// other block's join waits on it.
@@ -115,7 +114,7 @@ impl<'n> Walker<'n> {
             let mut ended: HashMap<NodeId, BTreeSet<u16>> = HashMap::default();
             for (start, op) in self.flow_out(fork) {
                 let b = self.branch(fork, join, start);
-                let closed = b.closed.then(|| (b.drones.clone(), b.join));
+                let closed = b.closed.then(|| b.drones.clone());
                 if b.closed {
                     for &q in &b.ends {
                         let drones = ended.entry(q).or_insert_with(|| b.drones.clone());
@@ -134,7 +133,7 @@ impl<'n> Walker<'n> {
                 .filter(|&q| self.followed(q))
                 .map(|q| (q, ended.remove(&q)));
             let waits = Waits::new(inputs);
-            self.crossings.insert(fork, Crossing::new(outs));
+            self.crossings.insert(fork, Crossing::new(join, outs));
             self.waits.insert(join, waits);
         }
     }
@@ -142,7 +141,6 @@ impl<'n> Walker<'n> {
     fn branch(&self, fork: NodeId, join: NodeId, start: NodeId) -> Branch {
         let mut branch = Branch {
             drones: BTreeSet::new(),
-            join,
             ends: Vec::new(),
             closed: true,
         };
