@@ -15,10 +15,11 @@
 //! Only tests and the benchmark harness use it: nothing that flies or
 //! serves a page may depend on a browser.
 
-use std::io::{Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
@@ -72,16 +73,25 @@ impl Browser {
     pub fn start_with(width: u32, height: u32, switches: &[&str]) -> Result<Browser, String> {
         let chromium = program("EAMOS_CHROMIUM", &["chromium", "chromium-browser"])?;
         let chromedriver = program("EAMOS_CHROMEDRIVER", &["chromedriver"])?;
-        let port = {
-            let l = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
-            l.local_addr().map_err(|e| e.to_string())?.port()
-        };
-        let driver = Command::new(&chromedriver)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
+        // The driver picks its own free port and says which: a port the
+        // caller picked (bound, closed, handed over) could be picked again
+        // by a browser started at the same moment, whose driver would then
+        // fail to listen, leaving both browsers on one driver until the
+        // first to end killed it under the other.
+        let mut driver = Command::new(&chromedriver)
+            .arg("--port=0")
+            .stdout(Stdio::piped())
             .stderr(Stdio::null())
             .spawn()
             .map_err(|e| format!("cannot start {}: {e}", chromedriver.display()))?;
+        let port = match listening_port(&mut driver) {
+            Ok(port) => port,
+            Err(e) => {
+                let _ = driver.kill();
+                let _ = driver.wait();
+                return Err(format!("{}: {e}", chromedriver.display()));
+            }
+        };
         let profile = tempfile::tempdir().map_err(|e| e.to_string())?;
         let mut b = Browser {
             driver,
@@ -89,13 +99,6 @@ impl Browser {
             session: String::new(),
             _profile: profile,
         };
-        let started = Instant::now();
-        while b.request("GET", "/status", None).is_err() {
-            if started.elapsed() > Duration::from_secs(20) {
-                return Err(format!("chromedriver did not answer on port {port}"));
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
         let mut args = vec![
             "--headless".to_string(),
             "--no-sandbox".into(),
@@ -274,6 +277,35 @@ impl Drop for Browser {
         let _ = self.driver.kill();
         let _ = self.driver.wait();
     }
+}
+
+/// The port a driver started with `--port=0` announces ("... started
+/// successfully on port N."); its output is drained afterwards, so that a
+/// full pipe never stops it.
+fn listening_port(driver: &mut Child) -> Result<u16, String> {
+    let out = driver.stdout.take().ok_or("no output from the driver")?;
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let mut said = Vec::new();
+        let mut lines = BufReader::new(out).lines().map_while(Result::ok);
+        let reply = loop {
+            let Some(line) = lines.next() else {
+                break Err(format!("it ended without listening: {}", said.join(" / ")));
+            };
+            let port = line
+                .split("started successfully on port ")
+                .nth(1)
+                .and_then(|rest| rest.trim_end_matches('.').parse::<u16>().ok());
+            match port {
+                Some(port) => break Ok(port),
+                None => said.push(line),
+            }
+        };
+        let _ = tx.send(reply);
+        lines.for_each(drop);
+    });
+    rx.recv_timeout(Duration::from_secs(20))
+        .map_err(|_| "it did not say where it listens within 20 s".to_string())?
 }
 
 fn unchunk(mut data: &[u8]) -> Vec<u8> {
