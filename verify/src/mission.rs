@@ -450,10 +450,21 @@ pub(crate) fn subject(
         else {
             continue;
         };
-        for (i, (p, a)) in list.iter().enumerate() {
-            for (q, b) in &list[i + 1..] {
-                if profile.excludes(a, b) {
-                    exclusive.push((*p.min(q), *p.max(q)));
+        // A drone flies the same few actions many times: whether two
+        // exclude each other is asked of the profile once per two names.
+        let mut names: Vec<&str> = list.iter().map(|(_, a)| a.as_str()).collect();
+        names.sort_unstable();
+        names.dedup();
+        let excludes: Vec<Vec<bool>> = names
+            .iter()
+            .map(|a| names.iter().map(|b| profile.excludes(a, b)).collect())
+            .collect();
+        let name = |a: &str| names.binary_search(&a).expect("a name of the list");
+        let named: Vec<(u32, usize)> = list.iter().map(|(p, a)| (*p, name(a))).collect();
+        for (i, &(p, a)) in named.iter().enumerate() {
+            for &(q, b) in &named[i + 1..] {
+                if excludes[a][b] {
+                    exclusive.push((p.min(q), p.max(q)));
                 }
             }
         }

@@ -319,3 +319,15 @@ fn a_climbing_leg_is_any_of_its_heights_along_its_line() {
     assert_eq!(lines(f, &file), vec![21, 31], "{}", f.message);
     assert!(f.message.contains("0.00 m"), "{}", f.message);
 }
+
+#[test]
+fn rests_beside_a_loop_on_the_drones_own_height_leave_no_drone_stuck() {
+    // D2 comes near D1 resting between two climbs, so where D1 rests is
+    // recorded; each climb starts from every rest the loop's guard, free
+    // to hold or not, leads to, not only from those it leads to at one
+    // height (which would leave D1 stuck between climbs).
+    let (r, ..) = check("climb_beside.go");
+    assert_eq!(verdict(&r, Property::Deadlock), Verdict::Holds);
+    assert_eq!(verdict(&r, Property::Separation), Verdict::Violated);
+    only(&r, FindingKind::TooClose);
+}

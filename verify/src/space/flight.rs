@@ -9,7 +9,9 @@
 //! three, so loops need no counting. A finding names the action, the state
 //! it can start in, and the drone's own actions that lead there.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
+
+use rustc_hash::FxHashMap as HashMap;
 
 use eamos_geo::Airspace;
 use eamos_petri::net::{Net, NodeId};
@@ -41,7 +43,7 @@ fn states(
     names: &Names,
 ) -> Result<Vec<Finding>, OutOfBudget> {
     let actions = tracked(net, profiles, |sig| sig.flight.is_some());
-    let mut start_of: HashMap<NodeId, usize> = HashMap::new();
+    let mut start_of: HashMap<NodeId, usize> = HashMap::default();
     for (i, t) in actions.iter().enumerate() {
         for &s in &t.starts {
             start_of.insert(s, i);
@@ -53,7 +55,7 @@ fn states(
         BTreeMap::new();
     type Step = (usize, FlightState);
     let mut work: Vec<(usize, FlightState, Option<Step>)> = Vec::new();
-    let mut next: HashMap<(usize, bool), Vec<usize>> = HashMap::new();
+    let mut next: HashMap<(usize, bool), Vec<usize>> = HashMap::default();
     let drones: std::collections::BTreeSet<u16> = actions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&i| actions[i].drone == d);

@@ -11,7 +11,11 @@
 //! round, under a condition) would add new starts for ever: past
 //! [`MAX_STARTS`] at one step the drone is said to drift.
 
-use std::collections::{BTreeSet, HashMap, VecDeque};
+use std::cell::Cell;
+use std::collections::{BTreeSet, VecDeque};
+
+// Walks and starts are looked up by the thousand: Fx, as in `walk.rs`.
+use rustc_hash::FxHashMap as HashMap;
 
 use eamos_geo::Vec3;
 use eamos_lang::Span;
@@ -177,7 +181,7 @@ pub(crate) fn positions(
         return Err(OutOfBudget);
     }
     let motions = tracked(net, profiles, |sig| sig.motion.is_some());
-    let mut start_of: HashMap<NodeId, usize> = HashMap::new();
+    let mut start_of: HashMap<NodeId, usize> = HashMap::default();
     for (m, t) in motions.iter().enumerate() {
         for &s in &t.starts {
             start_of.insert(s, m);
@@ -193,11 +197,13 @@ pub(crate) fn positions(
     };
     let mut budget = WALK_BUDGET;
     let mut work: VecDeque<(usize, Colour, Shape, Last)> = VecDeque::new();
+    let mut unblocked = Unblocked::default();
     let drones: BTreeSet<u16> = motions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
         let home = Shape::point(Vec3::ZERO);
-        let blocked = |t: NodeId| decided_false(net, profiles, t, d, home);
+        let said_no = Cell::new(false);
+        let blocked = |t: NodeId| noted(&said_no, decided_false(net, profiles, t, d, home));
         let reach = walker.walk(
             walker.initial(),
             Some(d),
@@ -207,14 +213,17 @@ pub(crate) fn positions(
             None,
             &mut budget,
         )?;
+        if !said_no.get() {
+            unblocked.from_home.insert(d, reach.stops.clone());
+        }
         for (t, c) in reach.stops {
             work.push_back((start_of[&t], c, Shape::point(Vec3::ZERO), Last::Home));
         }
     }
     type Next = Vec<(usize, Colour)>;
-    let mut next: HashMap<(usize, Colour, bool, [i64; 7]), Next> = HashMap::new();
+    let mut next: HashMap<(usize, Colour, bool, [i64; 7]), Next> = HashMap::default();
     type Starts = (BTreeSet<[i64; 7]>, Vec<Shape>);
-    let mut starts: HashMap<(usize, Colour), Starts> = HashMap::new();
+    let mut starts: HashMap<(usize, Colour), Starts> = HashMap::default();
     let mut ends_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut stops_seen: Vec<BTreeSet<[i64; 7]>> = vec![BTreeSet::new(); n];
     let mut drifting: BTreeSet<(usize, Colour)> = BTreeSet::new();
@@ -254,7 +263,8 @@ pub(crate) fn positions(
             let at = if cancel { sweep.stopped_on() } else { end };
             let key = (m, c.clone(), cancel, at.key());
             if !next.contains_key(&key) {
-                let blocked = |t: NodeId| decided_false(net, profiles, t, d, at);
+                let said_no = Cell::new(false);
+                let blocked = |t: NodeId| noted(&said_no, decided_false(net, profiles, t, d, at));
                 let reach = walker.walk_after(
                     via,
                     &c,
@@ -265,6 +275,10 @@ pub(crate) fn positions(
                     &blocked,
                     &mut budget,
                 )?;
+                if !said_no.get() {
+                    let after = (m, c.clone(), cancel);
+                    unblocked.after.insert(after, reach.stops.clone());
+                }
                 let list = reach
                     .stops
                     .into_iter()
@@ -286,10 +300,27 @@ pub(crate) fn positions(
             }
         }
     }
-    out.preds = preds(walker, &motions, &start_of, &mut budget)?;
+    out.preds = preds(walker, &motions, &start_of, &unblocked, &mut budget)?;
     out.exact_rounds = walker.cap();
     out.motions = motions;
     Ok(out)
+}
+
+/// Where walks that no guard stopped came to (the stops and their
+/// colours): the same walks with every guard free to hold go the same way,
+/// and `preds` takes them from here rather than walking them again.
+#[derive(Default)]
+struct Unblocked {
+    /// By drone, from the start of the mission.
+    from_home: HashMap<u16, Vec<(NodeId, Colour)>>,
+    /// By motion, round and whether it was cancelled, from its end.
+    after: HashMap<(usize, Colour, bool), Vec<(NodeId, Colour)>>,
+}
+
+/// `no`, noted in `said_no` if true.
+fn noted(said_no: &Cell<bool>, no: bool) -> bool {
+    said_no.set(said_no.get() || no);
+    no
 }
 
 /// What each motion can start from, as the checker's exploration sees the
@@ -301,6 +332,7 @@ fn preds(
     walker: &Walker,
     motions: &[Tracked],
     start_of: &HashMap<NodeId, usize>,
+    unblocked: &Unblocked,
     budget: &mut usize,
 ) -> Result<Vec<BTreeSet<Last>>, OutOfBudget> {
     let mut preds = vec![BTreeSet::new(); motions.len()];
@@ -309,18 +341,16 @@ fn preds(
     let drones: BTreeSet<u16> = motions.iter().map(|t| t.drone).collect();
     for &d in &drones {
         let stop = |t: NodeId| start_of.get(&t).is_some_and(|&m| motions[m].drone == d);
-        for (t, c) in walker
-            .walk(
-                walker.initial(),
-                Some(d),
-                &stop,
-                true,
-                &|_| false,
-                None,
-                budget,
-            )?
-            .stops
-        {
+        let stops = match unblocked.from_home.get(&d) {
+            Some(stops) => stops.clone(),
+            None => {
+                let seeds = walker.initial();
+                walker
+                    .walk(seeds, Some(d), &stop, true, &|_| false, None, budget)?
+                    .stops
+            }
+        };
+        for (t, c) in stops {
             preds[start_of[&t]].insert(Last::Home);
             work.push((start_of[&t], c));
         }
@@ -339,9 +369,15 @@ fn preds(
             if via.is_empty() {
                 continue;
             }
-            let reach =
-                walker.walk_after(via, &c, cancel, Some(d), &stop, true, &|_| false, budget)?;
-            for (t2, c2) in reach.stops {
+            let stops = match unblocked.after.get(&(m, c.clone(), cancel)) {
+                Some(stops) => stops.clone(),
+                None => {
+                    walker
+                        .walk_after(via, &c, cancel, Some(d), &stop, true, &|_| false, budget)?
+                        .stops
+                }
+            };
+            for (t2, c2) in stops {
                 preds[start_of[&t2]].insert(last);
                 work.push((start_of[&t2], c2));
             }

@@ -57,6 +57,25 @@ struct Branch {
     /// It leads nowhere but to its join (or to the mission's end): no
     /// other block's join waits on it.
     closed: bool,
+    /// The forks of the blocks inside it.
+    forks: Vec<NodeId>,
+}
+
+/// A block worked out: how walks cross it and, when every branch of it is
+/// closed, what a branch of a block around it takes from it.
+struct Block {
+    crossing: Crossing,
+    waits: Waits,
+    inner: Option<Inner>,
+}
+
+/// A closed block as seen from a branch around it, which goes from its
+/// fork straight to its join: no place inside leads anywhere else.
+struct Inner {
+    /// Drones with an action in one of its branches.
+    drones: BTreeSet<u16>,
+    /// Its fork and the forks of the blocks inside it.
+    forks: Vec<NodeId>,
 }
 
 /// Where a walk stopped, and the places it passed.
@@ -107,42 +126,98 @@ impl<'n> Walker<'n> {
     }
 
     /// Every branch of every block, followed structurally from its fork
-    /// to its join, and what a walk for each drone does with them.
+    /// to its join, and what a walk for each drone does with them. Inner
+    /// blocks first: a branch that comes to a closed inner block jumps from
+    /// its fork to its join with what the block holds, so that each place
+    /// is followed once, not once per block around it.
     fn blocks(&mut self) {
-        for (&join, &fork) in &self.fork_of {
-            let mut outs = Vec::new();
-            let mut ended: HashMap<NodeId, BTreeSet<u16>> = HashMap::default();
-            for (start, op) in self.flow_out(fork) {
-                let b = self.branch(fork, join, start);
-                let closed = b.closed.then(|| b.drones.clone());
-                if b.closed {
-                    for &q in &b.ends {
-                        let drones = ended.entry(q).or_insert_with(|| b.drones.clone());
-                        drones.retain(|d| b.drones.contains(d));
-                    }
-                }
-                outs.push(Out {
-                    place: start,
-                    op,
-                    closed,
-                });
+        // A `Do` region's fork has up to three joins (its two ends and its
+        // exit), all after its one followed branch, the body: its block
+        // closes at the first in the net's order, and a walk waits at the
+        // others for every input.
+        let mut join_of: HashMap<NodeId, NodeId> = HashMap::default();
+        for (join, _) in self.net.transitions() {
+            if let Some(&fork) = self.fork_of.get(&join) {
+                join_of.entry(fork).or_insert(join);
             }
-            let inputs = self
-                .net
-                .preset(join)
-                .filter(|&q| self.followed(q))
-                .map(|q| (q, ended.remove(&q)));
-            let waits = Waits::new(inputs);
-            self.crossings.insert(fork, Crossing::new(join, outs));
-            self.waits.insert(join, waits);
+        }
+        let mut done: HashMap<NodeId, Option<Block>> = HashMap::default();
+        for &fork in join_of.keys() {
+            self.block(fork, &join_of, &mut done);
+        }
+        for (fork, block) in done {
+            let block = block.expect("every block is finished");
+            self.waits.insert(join_of[&fork], block.waits);
+            self.crossings.insert(fork, block.crossing);
         }
     }
 
-    fn branch(&self, fork: NodeId, join: NodeId, start: NodeId) -> Branch {
+    /// The block `fork` opens, worked out into `done` (`None` there while
+    /// it is under way: a block met again inside itself is followed place
+    /// by place).
+    fn block(
+        &self,
+        fork: NodeId,
+        join_of: &HashMap<NodeId, NodeId>,
+        done: &mut HashMap<NodeId, Option<Block>>,
+    ) {
+        if done.contains_key(&fork) {
+            return;
+        }
+        done.insert(fork, None);
+        let join = join_of[&fork];
+        let mut outs = Vec::new();
+        let mut ended: HashMap<NodeId, BTreeSet<u16>> = HashMap::default();
+        let mut inner = Some(Inner {
+            drones: BTreeSet::new(),
+            forks: vec![fork],
+        });
+        for (start, op) in self.flow_out(fork) {
+            let b = self.branch(fork, join, start, join_of, done);
+            let closed = b.closed.then(|| b.drones.clone());
+            if b.closed {
+                for &q in &b.ends {
+                    let drones = ended.entry(q).or_insert_with(|| b.drones.clone());
+                    drones.retain(|d| b.drones.contains(d));
+                }
+            }
+            inner = inner.filter(|_| b.closed).map(|mut i| {
+                i.drones.extend(b.drones);
+                i.forks.extend(b.forks);
+                i
+            });
+            outs.push(Out {
+                place: start,
+                op,
+                closed,
+            });
+        }
+        let inputs = self
+            .net
+            .preset(join)
+            .filter(|&q| self.followed(q))
+            .map(|q| (q, ended.remove(&q)));
+        let block = Block {
+            crossing: Crossing::new(join, outs),
+            waits: Waits::new(inputs),
+            inner,
+        };
+        done.insert(fork, Some(block));
+    }
+
+    fn branch(
+        &self,
+        fork: NodeId,
+        join: NodeId,
+        start: NodeId,
+        join_of: &HashMap<NodeId, NodeId>,
+        done: &mut HashMap<NodeId, Option<Block>>,
+    ) -> Branch {
         let mut branch = Branch {
             drones: BTreeSet::new(),
             ends: Vec::new(),
             closed: true,
+            forks: Vec::new(),
         };
         let mut seen: HashSet<NodeId> = HashSet::from_iter([start]);
         let mut forks: HashSet<NodeId> = HashSet::from_iter([fork]);
@@ -157,14 +232,26 @@ impl<'n> Walker<'n> {
                     branch.ends.push(p);
                     continue;
                 }
+                let mut next = t;
                 match self.net.transition(t).map(|t| &t.kind) {
                     Some(TransitionKind::Fork) => {
+                        if let Some(&inner_join) = join_of.get(&t) {
+                            self.block(t, join_of, done);
+                            if let Some(Some(Block {
+                                inner: Some(inner), ..
+                            })) = done.get(&t)
+                            {
+                                branch.drones.extend(&inner.drones);
+                                forks.extend(&inner.forks);
+                                next = inner_join;
+                            }
+                        }
                         forks.insert(t);
                     }
                     Some(TransitionKind::Join) => joins.push(t),
                     _ => {}
                 }
-                for (q, _) in self.flow_out(t) {
+                for (q, _) in self.flow_out(next) {
                     if seen.insert(q) {
                         stack.push(q);
                     }
@@ -176,6 +263,8 @@ impl<'n> Walker<'n> {
         branch.closed = joins
             .iter()
             .all(|j| self.fork_of.get(j).is_some_and(|f| forks.contains(f)));
+        forks.remove(&fork);
+        branch.forks = forks.into_iter().collect();
         branch
     }
 
@@ -478,6 +567,19 @@ mod tests {
             short * 4 < long,
             "B's walk took {short} steps, going down C's branch {long}"
         );
+    }
+
+    /// B's next action lies in a block inside a branch of a block: the
+    /// outer branch holds B's action through the inner block, whose fork
+    /// the branch jumps to its join, so B's walk goes down it.
+    #[test]
+    fn a_branch_holds_the_actions_of_the_blocks_inside_it() {
+        let text = "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_All()\n\tB.Land()\n}\n\nfunc PAR_All() {\n\tC.Arm()\n\tSEQ_Inner()\n\tE.Arm()\n}\n\nfunc SEQ_Inner() {\n\tE.Takeoff(2)\n\tPAR_Inner()\n}\n\nfunc PAR_Inner() {\n\tB.Hover(1)\n\tC.Takeoff(2)\n}\n";
+        let net = net(text);
+        let (own, _) = from_takeoff(&net, Some(0));
+        assert_eq!(own, from_takeoff(&net, None).0);
+        assert_eq!(own.len(), 1, "{own:?}");
+        assert!(own[0].contains("Hover"), "{own:?}");
     }
 
     /// B has a branch of its own in a block beside C's and E's: B's walk
