@@ -235,9 +235,12 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         // exploration, whose peak it would otherwise be part of (a
         // place-by-place bit matrix up to 4,096 places, 2 MB; beyond,
         // its rows' runs, 11 MB of them at 40,000 places).
-        drop(conc);
         let base = recorded.unwrap_or_else(|| pt.clone());
-        let net = base.with_monitors(monitors);
+        let mut net = base.with_monitors(monitors);
+        if structurally_safe {
+            net.mutex_inputs = conc.mutex_inputs(&net, pt.n_places());
+        }
+        drop(conc);
         // A plain 1-safe net without `final` asks the exploration one
         // thing only, whether it deadlocks: where the place invariants
         // prove it cannot, nothing is explored.

@@ -700,7 +700,7 @@ fn closure<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, seed:
                     stack.push(u);
                 }
             }
-        } else {
+        } else if !waits_on_the_set::<E>(net, m, in_s, sgen, ti) {
             let p = scapegoat::<E>(net, m, in_s, sgen, ti);
             for &u in net.producers.get(p as usize) {
                 if in_s[u as usize] != sgen {
@@ -711,6 +711,32 @@ fn closure<E: Encoding>(net: &PtNet, m: &[u64], s: &mut Scratch, gen: u32, seed:
         }
     }
     true
+}
+
+/// Whether disabled `t` can be enabled only after a transition already in
+/// the set fires: it has an empty input `p` that can be filled only once a
+/// marked place `c` around it is empty (`PtNet::mutex_inputs`), and every
+/// consumer of `c` but `t` (not enabled before) is in the set. Those
+/// consumers are then a necessary enabling set of `t` that adds nothing,
+/// where `p`'s producers would lead back through every step before it (a
+/// `Do` region's fork, whose output is still marked, back to the
+/// mission's start: two thousand steps a closure at 1,000 drones).
+fn waits_on_the_set<E: Encoding>(
+    net: &PtNet,
+    m: &[u64],
+    in_s: &[u32],
+    sgen: u32,
+    t: usize,
+) -> bool {
+    net.mutex_inputs.get_or_none(t).iter().any(|&(p, c)| {
+        E::get(m, p) == 0
+            && E::get(m, c) > 0
+            && net
+                .consumers
+                .get(c as usize)
+                .iter()
+                .all(|&u| u as usize == t || in_s[u as usize] == sgen)
+    })
 }
 
 /// An input of a disabled transition that lacks tokens: preferably one whose

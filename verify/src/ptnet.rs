@@ -54,6 +54,16 @@ impl<T> Csr<T> {
     pub(crate) fn get(&self, i: usize) -> &[T] {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
+
+    /// List `i`, or none where no lists were made (a default `Csr`).
+    #[inline]
+    pub(crate) fn get_or_none(&self, i: usize) -> &[T] {
+        if self.offsets.is_empty() {
+            &[]
+        } else {
+            self.get(i)
+        }
+    }
 }
 
 /// What a transition is, in the words a person reads in a counterexample.
@@ -130,6 +140,10 @@ pub(crate) struct PtNet {
     /// transition enabled (everything that could disable it or that it could
     /// disable).
     pub conflicts: Csr<u32>,
+    /// Per transition: pairs of its inputs `(p, c)` where `p` can be
+    /// filled only once `c` is empty (`Concurrency::mutex_inputs`); empty
+    /// where no concurrency relation was computed.
+    pub mutex_inputs: Csr<(u32, u32)>,
     /// Transitions with no input at all: always enabled.
     pub sources: Vec<u32>,
     pub initial: Vec<u32>,
@@ -211,6 +225,7 @@ impl PtNet {
             readers: Csr::default(),
             producers: Csr::default(),
             conflicts: Csr::default(),
+            mutex_inputs: Csr::default(),
             sources: Vec::new(),
             initial,
             final_place,
@@ -328,6 +343,8 @@ impl PtNet {
         self.readers = Csr::from_lists(&readers);
         self.producers = Csr::from_lists(&producers);
         self.conflicts = Csr::from_lists(&conflicts);
+        // Made for the transitions as they were: the caller makes them again.
+        self.mutex_inputs = Csr::default();
         self.sources = sources;
     }
 

@@ -28,8 +28,14 @@
 //! equal rows (the places of a chain, see [`chains`]), and read back
 //! place by place.
 
-use crate::ptnet::PtNet;
+use crate::ptnet::{Csr, PtNet};
 use crate::relation::{Relation, Run};
+
+/// Inputs with more producers than this, and transitions with more
+/// places around them than that, get no pairs in
+/// [`Concurrency::mutex_inputs`].
+const MUTEX_PRODUCERS: usize = 8;
+const MUTEX_AROUND: usize = 16;
 
 /// The relation, and what it says about 1-safety.
 pub(crate) struct Concurrency {
@@ -338,6 +344,61 @@ impl Concurrency {
         a != b && self.pairs.get(a, b)
     }
 
+    /// Per transition `u` of `net` (none for a monitor), the pairs `(p,
+    /// c)` of an input `p` and another place `c` around `u` (an input or
+    /// an output) such that no producer of `p` can fire while `c` is
+    /// marked: each has an input that is never marked together with `c`.
+    /// Where `p` is empty and `c` marked, `u` can be enabled only once a
+    /// consumer of `c` has emptied it, so those consumers are a necessary
+    /// enabling set of `u` (see `closure` in `explore.rs`): a few
+    /// transitions beside the current ones, where the producers of `p`
+    /// would lead back through every step of the mission that came before
+    /// (a `Do` region's fork, whose output is still marked, back to the
+    /// mission's start). The relation is over
+    /// the first `known` places (the net may have more, with copies of
+    /// transitions: the spatial check's rest records), and only holds of
+    /// a 1-safe net.
+    pub(crate) fn mutex_inputs(&self, net: &PtNet, known: usize) -> Csr<(u32, u32)> {
+        let inputs = |t: usize| net.pre.get(t).iter().chain(net.read.get(t));
+        let never_with = |t: usize, c: u32| {
+            inputs(t).any(|&(q, _)| (q as usize) < known && q != c && !self.get(q, c))
+        };
+        let lists: Vec<Vec<(u32, u32)>> = (0..net.n_all())
+            .map(|u| {
+                let mut pairs = Vec::new();
+                // A fleet-wide join has a thousand inputs: a million
+                // pairs, each a few lookups, for one transition.
+                let around = net.pre.get(u).len() + net.read.get(u).len() + net.post.get(u).len();
+                if net.is_monitor(u as u32) || around > MUTEX_AROUND {
+                    return pairs;
+                }
+                for &(p, w) in inputs(u) {
+                    if w != 1 || p as usize >= known {
+                        continue;
+                    }
+                    let producers = net.producers.get(p as usize);
+                    // A place filled from everywhere (an event signalled
+                    // by many drones) would cost more than it saves.
+                    if producers.len() > MUTEX_PRODUCERS {
+                        continue;
+                    }
+                    for &(c, _) in inputs(u).chain(net.post.get(u)) {
+                        let fits = c != p
+                            && (c as usize) < known
+                            && producers.iter().all(|&t| {
+                                t as usize == u || net.is_monitor(t) || never_with(t as usize, c)
+                            });
+                        if fits {
+                            pairs.push((p, c));
+                        }
+                    }
+                }
+                pairs
+            })
+            .collect();
+        Csr::from_lists(&lists)
+    }
+
     /// Pairs `(t, p)` where `t` might fire into an already marked `p`. Empty
     /// means the net is 1-safe (if its initial marking is).
     pub(crate) fn unsafe_candidates(&self) -> &[(u32, u32)] {
@@ -505,6 +566,32 @@ mod tests {
                 }
             }
             prop_assert_eq!(c.unsafe_candidates(), &unsafe_pairs[..]);
+        }
+
+        /// Where `(p, c)` is a pair of `u`, no producer of `p` but `u` is
+        /// enabled in a reachable marking with `c` marked: `p` is filled
+        /// only once `c` is empty.
+        #[test]
+        fn no_producer_of_a_mutex_input_is_enabled_beside_its_pair(
+            (n, initial, ts) in random(),
+        ) {
+            let net = net(n, &initial, &ts);
+            let pairs = Concurrency::compute(&net).mutex_inputs(&net, n);
+            let enabled = |m: &[bool], t: usize| {
+                net.pre.get(t).iter().chain(net.read.get(t)).all(|&(q, _)| m[q as usize])
+            };
+            for m in safe_markings(&net) {
+                for u in 0..net.n_real {
+                    for &(p, c) in pairs.get(u) {
+                        for &t in net.producers.get(p as usize) {
+                            prop_assert!(
+                                t as usize == u || !m[c as usize] || !enabled(&m, t as usize),
+                                "t{t} fills p{p} with p{c} marked in {m:?} (pair of t{u})"
+                            );
+                        }
+                    }
+                }
+            }
         }
 
         #[test]
