@@ -350,14 +350,13 @@ impl Concurrency {
     /// marked: each has an input that is never marked together with `c`.
     /// Where `p` is empty and `c` marked, `u` can be enabled only once a
     /// consumer of `c` has emptied it, so those consumers are a necessary
-    /// enabling set of `u` (see `closure` in `explore.rs`): a few
+    /// enabling set of `u` (see `waits_on_the_set` in `explore.rs`): a few
     /// transitions beside the current ones, where the producers of `p`
     /// would lead back through every step of the mission that came before
     /// (a `Do` region's fork, whose output is still marked, back to the
-    /// mission's start). The relation is over
-    /// the first `known` places (the net may have more, with copies of
-    /// transitions: the spatial check's rest records), and only holds of
-    /// a 1-safe net.
+    /// mission's start). The relation is over the first `known` places
+    /// (the net may have more, with copies of transitions: the spatial
+    /// check's rest records), and only holds of a 1-safe net.
     pub(crate) fn mutex_inputs(&self, net: &PtNet, known: usize) -> Csr<(u32, u32)> {
         let inputs = |t: usize| net.pre.get(t).iter().chain(net.read.get(t));
         let never_with = |t: usize, c: u32| {
