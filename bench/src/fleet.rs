@@ -15,6 +15,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::process::status_kib;
+use crate::workload::free_port;
 
 /// Simulated seconds per real second.
 const SPEED: &str = "50";
@@ -176,13 +177,6 @@ fn kill_group(c: &mut Child) {
 #[cfg(not(unix))]
 fn kill_group(c: &mut Child) {
     let _ = c.kill();
-}
-
-fn free_port() -> Result<u16, String> {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .map_err(|e| format!("cannot find a free port: {e}"))
 }
 
 /// `exe ARGS` under GNU `time`, writing its peak memory to `peak` (when

@@ -2,7 +2,8 @@
 //! report's probes (which measure the peak memory of the same work in a
 //! child process), so that both measure one thing.
 
-use std::sync::Arc;
+use std::collections::BTreeSet;
+use std::sync::{Arc, Mutex};
 
 use eamos_exec::event::Discard;
 use eamos_exec::executor::{Agent, Executor, ExecutorOptions};
@@ -225,10 +226,41 @@ pub async fn ready_agent(
     Ok(Ready { executor, hub, sim })
 }
 
-/// A loopback TCP port nobody listens on right now.
+/// A loopback TCP port nobody listens on right now, and none this process
+/// handed out before: the system may give a port just closed to the next
+/// caller, and tests on parallel threads ask for ports before they bind
+/// them (two browsers' drivers once met on one port that way).
 pub fn free_port() -> Result<u16, String> {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .map_err(|e| format!("no free loopback port: {e}"))
+    static GIVEN: Mutex<BTreeSet<u16>> = Mutex::new(BTreeSet::new());
+    loop {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .map_err(|e| format!("no free loopback port: {e}"))?;
+        if GIVEN.lock().unwrap_or_else(|e| e.into_inner()).insert(port) {
+            return Ok(port);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two thousand ports asked for, as parallel tests ask: no two the
+    /// same, although the system, asked for a free port that often, hands
+    /// out one it gave before.
+    #[test]
+    fn no_port_is_handed_out_twice() {
+        let asked: Vec<_> = (0..4)
+            .map(|_| {
+                std::thread::spawn(|| (0..500).map(|_| free_port().unwrap()).collect::<Vec<_>>())
+            })
+            .collect();
+        let mut ports: Vec<u16> = asked.into_iter().flat_map(|t| t.join().unwrap()).collect();
+        ports.sort_unstable();
+        let before = ports.len();
+        ports.dedup();
+        assert_eq!(ports.len(), before);
+    }
 }

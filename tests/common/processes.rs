@@ -19,14 +19,11 @@ impl Drop for Processes {
     }
 }
 
-/// A loopback TCP port nobody holds now (another program may take it
-/// before the test does: good enough for a test's endpoints).
+/// A loopback TCP port nobody holds now and no other test of this binary
+/// was given (another program may take it before the test does: good
+/// enough for a test's endpoints).
 pub fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+    eamos_bench::workload::free_port().expect("a free loopback port")
 }
 
 /// Runs `eamos abort` on `mission`, waiting `timeout` seconds at most for

@@ -813,15 +813,8 @@ impl Alive {
 
 #[cfg(test)]
 mod version_tests {
+    use super::tests::free_port;
     use super::*;
-
-    fn free_port() -> u16 {
-        std::net::TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
-    }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn peers_of_two_versions_of_one_mission_refuse_each_other_and_say_why() {
@@ -883,13 +876,23 @@ mod tests {
         assert_eq!(alive_peer("M-1", "other/M-1/Drone2/alive"), None);
     }
 
-    /// A free loopback port: bind port 0 and let the OS choose.
-    fn free_port() -> u16 {
-        std::net::TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port()
+    /// A free loopback port, the system's choice, and none another test
+    /// of this binary was given: the system may hand a port just closed
+    /// to the next caller, and the tests ask from parallel threads before
+    /// their sessions listen.
+    pub(super) fn free_port() -> u16 {
+        static GIVEN: std::sync::Mutex<std::collections::BTreeSet<u16>> =
+            std::sync::Mutex::new(std::collections::BTreeSet::new());
+        loop {
+            let port = std::net::TcpListener::bind("127.0.0.1:0")
+                .unwrap()
+                .local_addr()
+                .unwrap()
+                .port();
+            if GIVEN.lock().unwrap_or_else(|e| e.into_inner()).insert(port) {
+                return port;
+            }
+        }
     }
 
     fn tcp(port: u16) -> String {
