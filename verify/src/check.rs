@@ -235,12 +235,13 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         // exploration, whose peak it would otherwise be part of (a
         // place-by-place bit matrix up to 4,096 places, 2 MB; beyond,
         // its rows' runs, 11 MB of them at 40,000 places).
+        let explored = recorded.as_ref().unwrap_or(&pt);
+        let mutex = structurally_safe.then(|| conc.mutex_inputs(explored, pt.n_places()));
+        drop(conc);
         let base = recorded.unwrap_or_else(|| pt.clone());
         let mut net = base.with_monitors(monitors);
-        if structurally_safe {
-            net.mutex_inputs = conc.mutex_inputs(&net, pt.n_places());
-        }
-        drop(conc);
+        // The monitors come after the transitions the pairs are of.
+        net.mutex_inputs = mutex.unwrap_or_default();
         // A plain 1-safe net without `final` asks the exploration one
         // thing only, whether it deadlocks: where the place invariants
         // prove it cannot, nothing is explored.

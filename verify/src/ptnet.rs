@@ -55,13 +55,14 @@ impl<T> Csr<T> {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
-    /// List `i`, or none where no lists were made (a default `Csr`).
+    /// List `i`, or none where fewer lists were made (none, in a default
+    /// `Csr`).
     #[inline]
     pub(crate) fn get_or_none(&self, i: usize) -> &[T] {
-        if self.offsets.is_empty() {
-            &[]
-        } else {
+        if i + 1 < self.offsets.len() {
             self.get(i)
+        } else {
+            &[]
         }
     }
 }
