@@ -19,7 +19,7 @@ use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc;
+use std::sync::{mpsc, Mutex};
 use std::time::{Duration, Instant};
 
 use serde_json::{json, Value};
@@ -56,7 +56,8 @@ pub fn available() -> bool {
 
 /// A chromedriver process and one browser session in it; both end on drop.
 pub struct Browser {
-    driver: Child,
+    /// Behind a lock so that a failed request can ask whether it exited.
+    driver: Mutex<Child>,
     port: u16,
     session: String,
     _profile: tempfile::TempDir,
@@ -94,7 +95,7 @@ impl Browser {
         };
         let profile = tempfile::tempdir().map_err(|e| e.to_string())?;
         let mut b = Browser {
-            driver,
+            driver: Mutex::new(driver),
             port,
             session: String::new(),
             _profile: profile,
@@ -206,7 +207,17 @@ impl Browser {
         let path = format!("/session/{}/{path}", self.session);
         let body = (method == "POST").then_some(body);
         self.request(method, &path, body)
-            .map_err(|e| format!("{method} {path}: {e}"))
+            .map_err(|e| format!("{method} {path}: {e}{}", self.driver_gone()))
+    }
+
+    /// What to add to a failed request's error when the driver has
+    /// exited: then its end of the connection is what went away.
+    fn driver_gone(&self) -> String {
+        let mut driver = self.driver.lock().unwrap_or_else(|e| e.into_inner());
+        match driver.try_wait() {
+            Ok(Some(status)) => format!(" (chromedriver has exited: {status})"),
+            _ => String::new(),
+        }
     }
 
     /// One WebDriver request; its `value`, or the error it answered.
@@ -274,8 +285,9 @@ impl Drop for Browser {
             let path = format!("/session/{}", self.session);
             let _ = self.request("DELETE", &path, None);
         }
-        let _ = self.driver.kill();
-        let _ = self.driver.wait();
+        let driver = self.driver.get_mut().unwrap_or_else(|e| e.into_inner());
+        let _ = driver.kill();
+        let _ = driver.wait();
     }
 }
 
