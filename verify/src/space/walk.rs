@@ -569,17 +569,22 @@ mod tests {
         );
     }
 
+    /// B's walk from its takeoff, for B alone, finds one next action, a
+    /// `Hover`, and the walk down every branch finds the same.
+    fn assert_next_is_only_a_hover(net: &Net) {
+        let (own, _) = from_takeoff(net, Some(0));
+        assert_eq!(own, from_takeoff(net, None).0);
+        assert_eq!(own.len(), 1, "{own:?}");
+        assert!(own[0].contains("Hover"), "{own:?}");
+    }
+
     /// B's next action lies in a block inside a branch of a block: the
     /// outer branch holds B's action through the inner block, whose fork
     /// the branch jumps to its join, so B's walk goes down it.
     #[test]
     fn a_branch_holds_the_actions_of_the_blocks_inside_it() {
         let text = "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_All()\n\tB.Land()\n}\n\nfunc PAR_All() {\n\tC.Arm()\n\tSEQ_Inner()\n\tE.Arm()\n}\n\nfunc SEQ_Inner() {\n\tE.Takeoff(2)\n\tPAR_Inner()\n}\n\nfunc PAR_Inner() {\n\tB.Hover(1)\n\tC.Takeoff(2)\n}\n";
-        let net = net(text);
-        let (own, _) = from_takeoff(&net, Some(0));
-        assert_eq!(own, from_takeoff(&net, None).0);
-        assert_eq!(own.len(), 1, "{own:?}");
-        assert!(own[0].contains("Hover"), "{own:?}");
+        assert_next_is_only_a_hover(&net(text));
     }
 
     /// B has a branch of its own in a block beside C's and E's: B's walk
@@ -589,10 +594,6 @@ mod tests {
     #[test]
     fn a_join_waits_for_the_branches_of_the_drone_walked() {
         let text = "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_All()\n\tB.Land()\n}\n\nfunc PAR_All() {\n\tC.Arm()\n\tSEQ_B()\n\tE.Arm()\n}\n\nfunc SEQ_B() {\n\tB.Hover(1)\n\tB.FlyTo(3, 0, 2)\n}\n";
-        let net = net(text);
-        let (own, _) = from_takeoff(&net, Some(0));
-        assert_eq!(own, from_takeoff(&net, None).0);
-        assert_eq!(own.len(), 1, "{own:?}");
-        assert!(own[0].contains("Hover"), "{own:?}");
+        assert_next_is_only_a_hover(&net(text));
     }
 }
