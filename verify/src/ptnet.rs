@@ -141,9 +141,10 @@ pub(crate) struct PtNet {
     /// transition enabled (everything that could disable it or that it could
     /// disable).
     pub conflicts: Csr<u32>,
-    /// Per transition: pairs of its inputs `(p, c)` where `p` can be
-    /// filled only once `c` is empty (`Concurrency::mutex_inputs`); empty
-    /// where no concurrency relation was computed.
+    /// Per real transition: pairs of an input `p` and a place `c` around
+    /// it (input or output) where `p` can be filled only once `c` is empty
+    /// (`Concurrency::mutex_inputs`); empty where no concurrency relation
+    /// was computed.
     pub mutex_inputs: Csr<(u32, u32)>,
     /// Transitions with no input at all: always enabled.
     pub sources: Vec<u32>,

@@ -344,9 +344,10 @@ impl Concurrency {
         a != b && self.pairs.get(a, b)
     }
 
-    /// Per transition `u` of `net` (none for a monitor), the pairs `(p,
-    /// c)` of an input `p` and another place `c` around `u` (an input or
-    /// an output) such that no producer of `p` can fire while `c` is
+    /// Per real transition `u` of `net` (monitors, which only read and
+    /// come after them, have no list: see `Csr::get_or_none`), the pairs
+    /// `(p, c)` of an input `p` and another place `c` around `u` (an input
+    /// or an output) such that no producer of `p` can fire while `c` is
     /// marked: each has an input that is never marked together with `c`.
     /// Where `p` is empty and `c` marked, `u` can be enabled only once a
     /// consumer of `c` has emptied it, so those consumers are a necessary
@@ -362,13 +363,13 @@ impl Concurrency {
         let never_with = |t: usize, c: u32| {
             inputs(t).any(|&(q, _)| (q as usize) < known && q != c && !self.get(q, c))
         };
-        let lists: Vec<Vec<(u32, u32)>> = (0..net.n_all())
+        let lists: Vec<Vec<(u32, u32)>> = (0..net.n_real)
             .map(|u| {
                 let mut pairs = Vec::new();
                 // A fleet-wide join has a thousand inputs: a million
                 // pairs, each a few lookups, for one transition.
                 let around = net.pre.get(u).len() + net.read.get(u).len() + net.post.get(u).len();
-                if net.is_monitor(u as u32) || around > MUTEX_AROUND {
+                if around > MUTEX_AROUND {
                     return pairs;
                 }
                 for &(p, w) in inputs(u) {
@@ -384,9 +385,9 @@ impl Concurrency {
                     for &(c, _) in inputs(u).chain(net.post.get(u)) {
                         let fits = c != p
                             && (c as usize) < known
-                            && producers.iter().all(|&t| {
-                                t as usize == u || net.is_monitor(t) || never_with(t as usize, c)
-                            });
+                            && producers
+                                .iter()
+                                .all(|&t| t as usize == u || never_with(t as usize, c));
                         if fits {
                             pairs.push((p, c));
                         }
