@@ -354,3 +354,32 @@ fn base64(text: &str) -> Vec<u8> {
     }
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn saying(text: &str) -> Child {
+        Command::new("sh")
+            .args(["-c", &format!("printf '{text}'")])
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("sh")
+    }
+
+    #[test]
+    fn a_driver_is_listening_on_the_port_it_announces() {
+        let said = "Starting ChromeDriver on port 0\\nChromeDriver was started successfully on port 41234.\\n";
+        assert_eq!(listening_port(&mut saying(said)), Ok(41234));
+    }
+
+    #[test]
+    fn a_driver_that_ends_without_announcing_a_port_is_an_error_with_what_it_said() {
+        let said = "Starting ChromeDriver on port 0\\nIPv6 port not available. Exiting...\\n";
+        let e = listening_port(&mut saying(said)).unwrap_err();
+        assert_eq!(
+            e,
+            "it ended without listening: Starting ChromeDriver on port 0 / IPv6 port not available. Exiting..."
+        );
+    }
+}
