@@ -232,9 +232,9 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
             recorded = e.net.take();
         }
         // The relation has chosen what to watch: freed before the
-        // exploration, whose peak it would otherwise be part of (a
-        // place-by-place bit matrix up to 4,096 places, 2 MB; beyond,
-        // its rows' runs, 11 MB of them at 40,000 places).
+        // exploration, whose peak it would otherwise be part of (a bit
+        // matrix up to 8,192 classes of places, 8 MB; beyond, its rows'
+        // runs).
         let explored = recorded.as_ref().unwrap_or(&pt);
         let mutex = structurally_safe.then(|| conc.mutex_inputs(explored, pt.n_places()));
         drop(conc);

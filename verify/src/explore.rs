@@ -89,6 +89,9 @@ use rayon::prelude::*;
 use crate::ptnet::{PtNet, Seeds};
 
 pub(crate) mod deadlock;
+mod enabled;
+
+pub(crate) use enabled::Parent;
 
 /// How markings are packed into words.
 pub(crate) trait Encoding: Copy + Send + Sync + 'static {
@@ -466,6 +469,8 @@ struct Scratch {
     stack: Vec<u32>,
     cur: Vec<u32>,
     best: Vec<u32>,
+    /// The transitions whose overflow `enabled::after` leaves to judge.
+    touched: Vec<u32>,
     buf: Vec<u64>,
 }
 
@@ -480,6 +485,7 @@ impl Scratch {
             stack: Vec::new(),
             cur: Vec::new(),
             best: Vec::new(),
+            touched: Vec::new(),
             buf: vec![0; words],
         }
     }
@@ -509,12 +515,9 @@ struct Expanded {
     hashes: Vec<u64>,
     monitors: Vec<u32>,
     overflow: Option<(u32, u32)>,
-}
-
-#[inline]
-fn enabled<E: Encoding>(net: &PtNet, m: &[u64], t: usize) -> bool {
-    net.pre.get(t).iter().all(|&(p, w)| E::get(m, p) >= w)
-        && net.read.get(t).iter().all(|&(p, w)| E::get(m, p) >= w)
+    /// The transitions enabled in the marking, sorted (its children's
+    /// [`Parent`]).
+    enabled: Vec<u32>,
 }
 
 /// Fires `t` into `out`; on a count above the encoding's capacity returns
@@ -553,38 +556,20 @@ fn overflow<E: Encoding>(net: &PtNet, m: &[u64], t: usize) -> Option<u32> {
     None
 }
 
-fn expand<E: Encoding>(net: &PtNet, reduction: bool, s: &mut Scratch, m: &[u64]) -> Expanded {
+/// Expands marking `m`: what is enabled in it (from its parent's when
+/// given), the transitions to fire, their successors.
+fn expand<E: Encoding>(
+    net: &PtNet,
+    reduction: bool,
+    s: &mut Scratch,
+    m: &[u64],
+    parent: Option<Parent>,
+) -> Expanded {
     let gen = s.next_gen();
-    s.enabled.clear();
-    {
-        let Scratch {
-            enabled_at,
-            seen_at,
-            enabled: en,
-            ..
-        } = s;
-        let mut consider = |t: u32| {
-            if seen_at[t as usize] != gen {
-                seen_at[t as usize] = gen;
-                if enabled::<E>(net, m, t as usize) {
-                    enabled_at[t as usize] = gen;
-                    en.push(t);
-                }
-            }
-        };
-        E::for_each_marked(m, |p| {
-            for &t in net.consumers.get(p as usize) {
-                consider(t);
-            }
-            for &t in net.readers.get(p as usize) {
-                consider(t);
-            }
-        });
-        for &t in &net.sources {
-            consider(t);
-        }
+    match parent {
+        Some(parent) => enabled::after::<E>(net, m, s, gen, parent),
+        None => enabled::from_scratch::<E>(net, m, s, gen),
     }
-    s.enabled.sort_unstable();
     let mut out = Expanded::default();
     let real_enabled = s.enabled.partition_point(|&t| !net.is_monitor(t));
     out.monitors = s.enabled[real_enabled..]
@@ -597,7 +582,14 @@ fn expand<E: Encoding>(net: &PtNet, reduction: bool, s: &mut Scratch, m: &[u64])
     }
     // Two tokens are checked on every enabled transition, fired or not: it
     // costs little and finds compiler bugs early.
-    for &t in &s.enabled[..real_enabled] {
+    // From a parent, only the transitions `enabled::after` names can
+    // overflow here: the others did not there, or no child would exist.
+    let candidates = match parent {
+        Some(_) => &s.touched[..],
+        None => &s.enabled[..real_enabled],
+    };
+    let enabled_here = |t: u32| !net.is_monitor(t) && s.enabled_at[t as usize] == gen;
+    for &t in candidates.iter().filter(|&&t| enabled_here(t)) {
         if let Some(p) = overflow::<E>(net, m, t as usize) {
             out.overflow = Some((t, p));
             return out;
@@ -612,6 +604,7 @@ fn expand<E: Encoding>(net: &PtNet, reduction: bool, s: &mut Scratch, m: &[u64])
     out.full = chosen.len() == real_enabled;
     successors::<E>(net, m, &chosen, s, &mut out);
     s.best = chosen;
+    out.enabled = s.enabled.clone();
     out
 }
 
@@ -808,17 +801,19 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
     // stubborn sets), and zeroing three vectors as long as the net's
     // transitions for each cost a sixth of the exploration at 1,000 drones.
     let mut own = (Scratch::new(n_all, words), vec![0; words]);
+    let mut kept = enabled::Kept::new(cfg.max_bytes / 4);
     'outer: loop {
         while cursor < ex.store.len() {
             let hi = ex.store.len().min(cursor + chunk);
             let store = &ex.store;
             let reduction = cfg.reduction;
+            let parents = &kept;
             let results: Vec<Expanded> = if hi - cursor < 32 {
                 let (s, m) = &mut own;
                 (cursor..hi)
                     .map(|id| {
                         store.marking_into(id as u32, m);
-                        expand::<E>(net, reduction, s, m)
+                        expand::<E>(net, reduction, s, m, parents.parent_of(store, id as u32))
                     })
                     .collect()
             } else {
@@ -828,19 +823,24 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
                         || (Scratch::new(n_all, words), vec![0; words]),
                         |(s, m), id| {
                             store.marking_into(id as u32, m);
-                            expand::<E>(net, reduction, s, m)
+                            expand::<E>(net, reduction, s, m, parents.parent_of(store, id as u32))
                         },
                     )
                     .collect()
             };
-            for (i, r) in results.into_iter().enumerate() {
+            for (i, mut r) in results.into_iter().enumerate() {
                 let id = (cursor + i) as u32;
                 ex.expanded += 1;
                 ex.fully.push(r.full || r.dead);
                 let dead = r.dead;
-                if let Err(stop) = absorb::<E>(&mut ex, net, id, r, None) {
-                    ex.stop = Some(stop);
-                    break 'outer;
+                kept.expanded(&ex.store, id);
+                let enabled = std::mem::take(&mut r.enabled);
+                match absorb::<E>(&mut ex, net, id, r, None) {
+                    Ok(children) => kept.keep(id, enabled, children),
+                    Err(stop) => {
+                        ex.stop = Some(stop);
+                        break 'outer;
+                    }
                 }
                 let at_end = net.final_place.is_some_and(|f| ex.store.tokens(id, f) > 0);
                 if cfg.first_deadlock && dead && !at_end {
@@ -856,7 +856,7 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
             if let Some(f) = cfg.progress {
                 f(ex.store.len(), cursor);
             }
-            if ex.memory_bytes() + extra.capacity() * 12 > cfg.max_bytes {
+            if ex.memory_bytes() + extra.capacity() * 12 + kept.bytes() > cfg.max_bytes {
                 ex.stop = Some(Stop::Memory);
                 break 'outer;
             }
@@ -869,11 +869,15 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
             break;
         }
         for id in ignoring {
-            let r = expand::<E>(net, false, &mut own.0, &ex.store.marking(id));
+            let mut r = expand::<E>(net, false, &mut own.0, &ex.store.marking(id), None);
             ex.fully[id as usize] = true;
-            if let Err(stop) = absorb::<E>(&mut ex, net, id, r, Some(&mut extra)) {
-                ex.stop = Some(stop);
-                break 'outer;
+            let enabled = std::mem::take(&mut r.enabled);
+            match absorb::<E>(&mut ex, net, id, r, Some(&mut extra)) {
+                Ok(children) => kept.keep(id, enabled, children),
+                Err(stop) => {
+                    ex.stop = Some(stop);
+                    break 'outer;
+                }
             }
         }
     }
@@ -888,14 +892,15 @@ pub(crate) fn explore<E: Encoding>(net: &PtNet, cfg: &Config) -> Exploration {
 }
 
 /// Records what expanding `id` produced: findings, new markings, edges (into
-/// the CSR arrays, or into `extra` for a second expansion).
+/// the CSR arrays, or into `extra` for a second expansion). Says how many
+/// of the markings were new.
 fn absorb<E: Encoding>(
     ex: &mut Exploration,
     net: &PtNet,
     id: u32,
     r: Expanded,
     mut extra: Option<&mut Vec<(u32, u32, u32)>>,
-) -> Result<(), Stop> {
+) -> Result<u32, Stop> {
     let counting = E::MAX > 1;
     for &mi in &r.monitors {
         let hit = &mut ex.monitor_hits[mi as usize];
@@ -925,6 +930,7 @@ fn absorb<E: Encoding>(
         ex.full_expansions += 1;
     }
     let keep_edges = !ex.edge_offsets.is_empty();
+    let mut children = 0;
     for (k, &t) in r.trans.iter().enumerate() {
         ex.fired[t as usize] = true;
         let lo = if k == 0 { 0 } else { r.ends[k - 1] };
@@ -933,6 +939,7 @@ fn absorb<E: Encoding>(
             return Err(Stop::TooManyStates);
         }
         let (sid, new) = ex.store.insert(succ, r.hashes[k], id, t);
+        children += u32::from(new);
         ex.edge_count += 1;
         match extra.as_deref_mut() {
             Some(extra) => extra.push((id, sid, t)),
@@ -963,7 +970,7 @@ fn absorb<E: Encoding>(
             }
         }
     }
-    Ok(())
+    Ok(children)
 }
 
 /// One marking of each terminal strong component of the explored graph that
@@ -1130,7 +1137,7 @@ mod tests {
             E::set(&mut m, p as u32, c.min(E::MAX));
         }
         let mut out = m.clone();
-        for t in (0..net.n_real).filter(|&t| enabled::<E>(net, &m, t)) {
+        for t in (0..net.n_real).filter(|&t| enabled::enabled::<E>(net, &m, t)) {
             prop_assert_eq!(
                 overflow::<E>(net, &m, t),
                 fire::<E>(net, &m, t, &mut out).err(),

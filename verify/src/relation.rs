@@ -150,14 +150,17 @@ impl Runs {
     }
 }
 
-/// Up to this many places the relation is a bit matrix (at most 2 MB),
-/// the quicker to compute; beyond, runs. With rows shared, runs took the
-/// check of 250 drones (9,867 places) from 37 to 30 MB and from 0.23 to
-/// 0.29 s, and of the 20-drone stress mission (8,986 places) from 37 to
-/// 30 MB and from 0.15 to 0.18 s; at 20,000 and 40,000 places, where a
-/// matrix would be 50 and 200 MB, the distinct rows hold 0.42 and 1.35
-/// million runs, 3.3 and 10.8 MB.
-const MATRIX_UP_TO: usize = 4_096;
+/// Up to this many places (or classes of places) the relation is a bit
+/// matrix (at most 8 MB), the quicker to compute; beyond, runs. The bound
+/// was 4,096 when the relation was over places: at 250 drones (9,867
+/// places) runs took the check from 37 to 30 MB and from 0.23 to 0.29 s,
+/// and at 20,000 and 40,000 places, where a matrix would be 50 and 200
+/// MB, the distinct rows hold 0.42 and 1.35 million runs, 3.3 and 10.8 MB.
+/// Over classes (`structural.rs`) a net has a third as many: 6,310 at 500
+/// drones, where the matrix (5 MB) took the check from 0.45 to 0.31 s and
+/// left its peak where it was (54.1 and 54.4 MB: the relation is gone
+/// before the exploration peaks); 12,758 at 1,000, where runs stay.
+const MATRIX_UP_TO: usize = 8_192;
 
 /// A symmetric relation over places.
 pub(crate) enum Relation {

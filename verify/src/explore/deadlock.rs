@@ -15,7 +15,9 @@
 
 use std::time::Instant;
 
-use super::{expand, hash_bytes, initial_marking, Encoding, Expanded, Exploration, Scratch, Stop};
+use super::{
+    expand, hash_bytes, initial_marking, Encoding, Expanded, Exploration, Parent, Scratch, Stop,
+};
 use crate::ptnet::PtNet;
 
 /// One marking on the search stack: its successors and the next to try.
@@ -46,7 +48,7 @@ pub(crate) fn search<E: Encoding>(
     let is_deadlock = |ex: &Exploration, id: u32, r: &Expanded| {
         r.dead && net.final_place.is_none_or(|f| ex.store.tokens(id, f) == 0)
     };
-    let first = expand::<E>(net, reduction, &mut s, &m);
+    let first = expand::<E>(net, reduction, &mut s, &m, None);
     ex.expanded = 1;
     let mut stack = vec![Frame {
         id: 0,
@@ -80,7 +82,11 @@ pub(crate) fn search<E: Encoding>(
             continue;
         }
         ex.store.marking_into(id, &mut m);
-        let r = expand::<E>(net, reduction, &mut s, &m);
+        let parent = Parent {
+            enabled: &top.succ.enabled,
+            fired: t,
+        };
+        let r = expand::<E>(net, reduction, &mut s, &m, Some(parent));
         ex.expanded += 1;
         let frame = Frame {
             id,
