@@ -22,6 +22,7 @@
 
 pub(crate) mod airspace;
 mod block;
+mod chain;
 pub(crate) mod flight;
 pub(crate) mod model;
 mod near;

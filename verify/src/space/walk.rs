@@ -18,7 +18,9 @@
 //! as come to its end. Going down every drone's branch made each walk cross
 //! the whole mission, the spatial check's work the square of the fleet's.
 //! Which branches those are, for each drone, is worked out once per block
-//! (`block.rs`).
+//! (`block.rs`). Down a row of steps that only pass the token on, a walk
+//! for one drone jumps to the start of that drone's next action there
+//! (`chain.rs`).
 //!
 //! Loop counters are followed exactly where a `RepeatFor` guard reads them
 //! (so a body flown three times is flown three times, not for ever); a
@@ -34,6 +36,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use eamos_petri::net::{Colour, ColourOp, Net, NodeId, PlaceKind, TransitionKind};
 
 use super::block::{Crossing, Out, Waits};
+use super::chain::Chains;
 
 pub(crate) struct Walker<'n> {
     net: &'n Net,
@@ -45,6 +48,8 @@ pub(crate) struct Walker<'n> {
     /// the branches it goes down; by join, the ends it waits for.
     crossings: HashMap<NodeId, Crossing>,
     waits: HashMap<NodeId, Waits>,
+    /// Runs of plain steps a walk for a drone jumps (`chain.rs`).
+    chains: Chains,
 }
 
 /// One branch of a `PAR_` block, from its fork to its join.
@@ -120,6 +125,7 @@ impl<'n> Walker<'n> {
             fork_of,
             crossings: HashMap::default(),
             waits: HashMap::default(),
+            chains: Chains::new(net, |p| followed(net, p)),
         };
         walker.blocks();
         walker
@@ -296,7 +302,9 @@ impl<'n> Walker<'n> {
         self.net.postset(t).filter(|(q, _)| self.followed(*q))
     }
 
-    /// Walks from `seeds` until `stop` says a transition is a stop. With
+    /// Walks from `seeds` until `stop` says a transition is a stop: for a
+    /// walk for one `drone`, only starts of that drone's actions may be
+    /// stops (the walk jumps rows of other steps, `chain.rs`). With
     /// `colours` off every token is colourless and colour guards may go
     /// either way (for analyses whose values are few, like flight states).
     /// A transition `blocked` says cannot fire (its guard cannot hold where
@@ -336,6 +344,10 @@ impl<'n> Walker<'n> {
                 }
                 visited.insert(p);
                 *budget = budget.checked_sub(1).ok_or(OutOfBudget)?;
+                if let Some(to) = drone.and_then(|d| self.chains.jump(p, d)) {
+                    stack.push((to, c, cut));
+                    continue;
+                }
                 for (t, _) in self.net.consumers(p) {
                     if stop(t) {
                         if stops.insert((t, c.clone())) {
@@ -486,9 +498,7 @@ impl<'n> Walker<'n> {
     /// Places a drone's control flow passes through: not the records of
     /// events and `Do` regions, which are state beside the flow.
     fn followed(&self, p: NodeId) -> bool {
-        self.net.place(p).is_some_and(|p| {
-            !p.kind.is_event_state() && !matches!(p.kind, PlaceKind::Region { .. })
-        })
+        followed(self.net, p)
     }
 
     fn colour(&self, mut c: Colour, colours: bool) -> Colour {
@@ -500,6 +510,11 @@ impl<'n> Walker<'n> {
         }
         c
     }
+}
+
+fn followed(net: &Net, p: NodeId) -> bool {
+    net.place(p)
+        .is_some_and(|p| !p.kind.is_event_state() && !matches!(p.kind, PlaceKind::Region { .. }))
 }
 
 #[cfg(test)]
@@ -566,6 +581,31 @@ mod tests {
         assert!(
             short * 4 < long,
             "B's walk took {short} steps, going down C's branch {long}"
+        );
+    }
+
+    /// B takes off, C and E fly forty actions in a row, then B hovers and
+    /// flies on: B's walk jumps the row (`chain.rs`) to the hover, the
+    /// first of its own actions there, and stops there as a walk step by
+    /// step does, in a fraction of the steps.
+    #[test]
+    fn a_walk_jumps_a_row_of_other_drones_actions_up_to_its_own() {
+        let mut text = String::from(
+            "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n",
+        );
+        for k in 0..20 {
+            text += &format!("\tC.FlyTo({k}, 1, 2)\n\tE.TakePhoto()\n");
+        }
+        text += "\tB.Hover(2)\n\tC.Land()\n\tB.FlyTo(3, 0, 2)\n\tB.Land()\n}\n";
+        let net = net(&text);
+        let (step_by_step, long) = from_takeoff(&net, None);
+        let (jumping, short) = from_takeoff(&net, Some(0));
+        assert_eq!(jumping, step_by_step);
+        assert_eq!(jumping.len(), 1, "{jumping:?}");
+        assert!(jumping[0].contains("Hover"), "{jumping:?}");
+        assert!(
+            short * 10 < long,
+            "B's walk took {short} steps, step by step {long}"
         );
     }
 
