@@ -280,22 +280,18 @@ impl Concurrency {
         if self.classes == 0 {
             out.iter_mut().for_each(|w| *w = 0);
         }
+        // Each input's row and the input itself: an input stays only if
+        // it is concurrent with every other input (the relation is
+        // symmetric), which asking each pair of inputs did at the square
+        // of a join's inputs (a fleet-wide block's join has one a drone).
         for &q in inputs {
+            let (w, bit) = (q as usize / 64, 1u64 << (q % 64));
+            let own = out[w] & bit;
             self.pairs.and_into(q, out);
-            out[q as usize / 64] |= (1u64 << (q % 64)) & self.row_mask(q, inputs);
+            out[w] |= own;
         }
         for &p in consumed {
             out[p as usize / 64] &= !(1u64 << (p % 64));
-        }
-    }
-
-    /// `q` itself counts as compatible with input `q` only if it is also
-    /// concurrent with every other input.
-    fn row_mask(&self, q: u32, inputs: &[u32]) -> u64 {
-        if inputs.iter().all(|&o| o == q || self.pairs.get(q, o)) {
-            !0
-        } else {
-            0
         }
     }
 
@@ -313,6 +309,20 @@ impl Concurrency {
         grown: &mut Vec<u32>,
     ) {
         self.pairs.copy_into(p, row);
+        // Mostly nothing is new (a transition is looked at again whenever
+        // an input's row grew): found in one pass the compiler vectorises.
+        // (`p` is not new to its own row.)
+        let (pw, pbit) = (p as usize / 64, 1u64 << (p % 64));
+        let had = row[pw] & pbit;
+        row[pw] |= pbit;
+        let fresh = with
+            .iter()
+            .zip(row.iter())
+            .fold(0, |a, (w, r)| a | (w & !r));
+        row[pw] = (row[pw] & !pbit) | had;
+        if fresh == 0 {
+            return;
+        }
         let mut changed = false;
         for (wi, &w) in with.iter().enumerate() {
             let mut new = w & !row[wi];

@@ -27,6 +27,7 @@
 //! counter that no guard reads stops counting past the largest count any
 //! guard tests, which keeps every walk finite.
 
+use std::cell::Cell;
 use std::collections::BTreeSet;
 
 // The walks hash node indices by the million at a few hundred drones:
@@ -50,6 +51,7 @@ pub(crate) struct Walker<'n> {
     waits: HashMap<NodeId, Waits>,
     /// Runs of plain steps a walk for a drone jumps (`chain.rs`).
     chains: Chains,
+    sets: Cell<Option<Box<Sets>>>,
 }
 
 /// One branch of a `PAR_` block, from its fork to its join.
@@ -81,6 +83,32 @@ struct Inner {
     drones: BTreeSet<u16>,
     /// Its fork and the forks of the blocks inside it.
     forks: Vec<NodeId>,
+}
+
+/// A walk's token: where it is, its colour, the `Do` region whose body
+/// it skips.
+type Token = (NodeId, Colour, Option<u32>);
+
+/// What a walk has seen, kept from one walk to the next and cleared
+/// there: made afresh, the sets grew (and were hashed again) in every
+/// walk, a third of the walks' instructions at 500 drones.
+#[derive(Default)]
+struct Sets {
+    seen: HashSet<Token>,
+    visited: HashSet<NodeId>,
+    crossed: HashSet<NodeId>,
+    queued: HashSet<Token>,
+    stops: HashSet<(NodeId, Colour)>,
+}
+
+impl Sets {
+    fn clear(&mut self) {
+        self.seen.clear();
+        self.visited.clear();
+        self.crossed.clear();
+        self.queued.clear();
+        self.stops.clear();
+    }
 }
 
 /// Where a walk stopped, and the places it passed.
@@ -126,6 +154,7 @@ impl<'n> Walker<'n> {
             crossings: HashMap::default(),
             waits: HashMap::default(),
             chains: Chains::new(net, |p| followed(net, p)),
+            sets: Cell::new(None),
         };
         walker.blocks();
         walker
@@ -322,16 +351,37 @@ impl<'n> Walker<'n> {
         cut: Option<u32>,
         budget: &mut usize,
     ) -> Result<Reach, OutOfBudget> {
-        type Token = (NodeId, Colour, Option<u32>);
-        let mut seen: HashSet<Token> = HashSet::default();
-        let mut visited: HashSet<NodeId> = HashSet::default();
-        let mut crossed: HashSet<NodeId> = HashSet::default();
+        let mut sets = self.sets.take().unwrap_or_default();
+        sets.clear();
+        let reach = self.walk_with(&mut sets, seeds, drone, stop, colours, blocked, cut, budget);
+        self.sets.set(Some(sets));
+        reach
+    }
+
+    /// [`Walker::walk`], in `sets` (empty).
+    #[allow(clippy::too_many_arguments)]
+    fn walk_with(
+        &self,
+        sets: &mut Sets,
+        seeds: Vec<(NodeId, Colour)>,
+        drone: Option<u16>,
+        stop: &dyn Fn(NodeId) -> bool,
+        colours: bool,
+        blocked: &dyn Fn(NodeId) -> bool,
+        cut: Option<u32>,
+        budget: &mut usize,
+    ) -> Result<Reach, OutOfBudget> {
+        let Sets {
+            seen,
+            visited,
+            crossed,
+            queued,
+            stops,
+        } = sets;
         // Joins waiting for their block's branches, each once: a block of
         // 200 drones' branches, all skipped, would queue its join 200
         // times, and each wave below looks at every one.
         let mut waiting: Vec<Token> = Vec::new();
-        let mut queued: HashSet<Token> = HashSet::default();
-        let mut stops: HashSet<(NodeId, Colour)> = HashSet::default();
         let mut reach = Reach::default();
         let mut stack: Vec<Token> = seeds
             .into_iter()
