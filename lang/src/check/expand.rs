@@ -352,8 +352,7 @@ impl<'a> Checker<'a> {
                     let what = || format!("argument `{}` of `{}`", param.name.name, b.name.name);
                     if let Some(n) = arg.as_name() {
                         let is_drone = matches!(env.get(n), Some(Binding::Drone { .. }))
-                            || (env.get(n).is_none()
-                                && self.drones.iter().any(|d| d.name.name == n));
+                            || (env.get(n).is_none() && self.drone_named(n).is_some());
                         if is_drone {
                             self.emit(
                                 Diagnostic::error(

@@ -64,7 +64,7 @@ impl<'a> Checker<'a> {
                                 continue;
                             }
                             let profile = self.drone_type(&spec.ty);
-                            self.drones.push(DroneDecl {
+                            self.add_drone(DroneDecl {
                                 name,
                                 ty: &spec.ty,
                                 profile,
@@ -222,7 +222,7 @@ impl<'a> Checker<'a> {
             Some(Binding::Poisoned) => return None,
             None => {}
         }
-        if let Some(i) = self.drones.iter().position(|d| d.name.name == name.name) {
+        if let Some(i) = self.drone_named(&name.name) {
             let d = &self.drones[i];
             return Some(DroneRef {
                 id: DroneId(i as u16),
@@ -272,7 +272,7 @@ impl<'a> Checker<'a> {
         if matches!(env.get(&name.name), Some(Binding::Poisoned)) {
             return;
         }
-        let is_drone = self.drones.iter().any(|d| d.name.name == name.name)
+        let is_drone = self.drone_named(&name.name).is_some()
             || matches!(env.get(&name.name), Some(Binding::Drone { .. }));
         let d = if is_drone {
             Diagnostic::error(

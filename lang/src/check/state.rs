@@ -148,6 +148,10 @@ pub(super) struct Checker<'a> {
     pub(super) diags: Vec<Diagnostic>,
     pub(super) mode: Mode,
     pub(super) drones: Vec<DroneDecl<'a>>,
+    /// Each drone's place in `drones`, by name: a fleet of hundreds is
+    /// looked up once an action (a search of the list made the checks
+    /// grow with the square of the fleet).
+    drone_ids: HashMap<&'a str, usize>,
     pub(super) globals: HashMap<&'a str, (Global, Span)>,
     pub(super) consts: HashMap<&'a str, ConstState<'a>>,
     pub(super) funcs: BTreeMap<&'a str, FuncInfo<'a>>,
@@ -161,6 +165,20 @@ pub(super) struct Checker<'a> {
 }
 
 impl<'a> Checker<'a> {
+    /// Declares the next drone.
+    pub(super) fn add_drone(&mut self, drone: DroneDecl<'a>) {
+        self.drone_ids.insert(&drone.name.name, self.drones.len());
+        self.drones.push(drone);
+    }
+
+    /// The declared drone named `name`, by its place in `drones`.
+    pub(super) fn drone_named(&self, name: &str) -> Option<usize> {
+        self.drone_ids
+            .get(name)
+            .copied()
+            .filter(|&i| i < self.drones.len())
+    }
+
     pub(super) fn new(
         file: &'a ast::File,
         source: &'a SourceFile,
@@ -173,6 +191,7 @@ impl<'a> Checker<'a> {
             diags: Vec::new(),
             mode: Mode::Check,
             drones: Vec::new(),
+            drone_ids: HashMap::new(),
             globals: HashMap::new(),
             consts: HashMap::new(),
             funcs: BTreeMap::new(),
