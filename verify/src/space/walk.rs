@@ -455,28 +455,28 @@ impl<'n> Walker<'n> {
                 }
             }
             // Joins whose block the walk opened go on once every branch
-            // of it has come to its end.
-            let (ready, still): (Vec<_>, Vec<_>) =
-                waiting
-                    .drain(..)
-                    .partition(|(t, _, _)| match drone.zip(self.waits.get(t)) {
-                        Some((d, waits)) => waits.of(d).all(|q| visited.contains(&q)),
-                        None => self
-                            .net
-                            .preset(*t)
-                            .filter(|&q| self.followed(q))
-                            .all(|q| visited.contains(&q)),
-                    });
-            waiting = still;
-            if ready.is_empty() {
+            // of it has come to its end (sorted out in place: a walk
+            // across a fleet waits at a join a block).
+            let mut ready = false;
+            waiting.retain(|(t, c, cut)| {
+                let reached = match drone.zip(self.waits.get(t)) {
+                    Some((d, waits)) => waits.of(d).all(|q| visited.contains(&q)),
+                    None => self
+                        .net
+                        .preset(*t)
+                        .filter(|&q| self.followed(q))
+                        .all(|q| visited.contains(&q)),
+                };
+                if reached {
+                    ready = true;
+                    for (q, c) in self.after(*t, c, colours) {
+                        stack.push((q, c, *cut));
+                    }
+                }
+                !reached
+            });
+            if !ready {
                 break;
-            }
-            for (t, c, cut) in ready {
-                stack.extend(
-                    self.after(t, &c, colours)
-                        .into_iter()
-                        .map(|(q, c)| (q, c, cut)),
-                );
             }
         }
         Ok(reach)
