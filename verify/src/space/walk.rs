@@ -51,6 +51,7 @@ pub(crate) struct Walker<'n> {
     waits: HashMap<NodeId, Waits>,
     /// Runs of plain steps a walk for a drone jumps (`chain.rs`).
     chains: Chains,
+    /// The sets of the last walk, for the next (see [`Sets`]).
     sets: Cell<Option<Box<Sets>>>,
 }
 
@@ -91,7 +92,7 @@ type Token = (NodeId, Colour, Option<u32>);
 
 /// What a walk has seen, kept from one walk to the next and cleared
 /// there: made afresh, the sets grew (and were hashed again) in every
-/// walk, a third of the walks' instructions at 500 drones.
+/// walk, a fifth of the walks' instructions at 500 drones.
 #[derive(Default)]
 struct Sets {
     seen: HashSet<Token>,
@@ -165,8 +166,8 @@ impl<'n> Walker<'n> {
     /// to its join, and what a walk for each drone does with them. Inner
     /// blocks first: a branch that comes to a closed inner block jumps from
     /// its fork to its join with what the block holds, so that each place
-    /// is followed once, not once per block around it.
-    /// Gives the closed blocks (`chain.rs`).
+    /// is followed once, not once per block around it. Gives the closed
+    /// blocks whose fork has one join (`chain.rs`).
     fn blocks(&mut self) -> HashMap<NodeId, Closed> {
         // A `Do` region's fork has up to three joins (its two ends and its
         // exit), all after its one followed branch, the body: its block
