@@ -191,7 +191,7 @@ impl Kept {
 mod tests {
     use proptest::prelude::*;
 
-    use super::super::{fire, overflow, Bits, Bytes};
+    use super::super::{fire, overflow, Bits, Bytes, Store};
     use super::*;
 
     /// From every marking `counts` makes of `net`, through every
@@ -239,6 +239,32 @@ mod tests {
             }
         }
         Ok(())
+    }
+
+    /// A parent's list is there for each of its children until the last
+    /// is expanded, and is not kept beyond the room given (its children
+    /// then work theirs out from scratch).
+    #[test]
+    fn a_parents_list_lives_as_long_as_its_children_wait_within_its_room() {
+        let mut store = Store::new::<Bits>(1);
+        let root = store.insert(&[0], 1, u32::MAX, u32::MAX).0;
+        let a = store.insert(&[1], 2, root, 7).0;
+        let b = store.insert(&[2], 3, root, 8).0;
+        let mut kept = Kept::new(1_000);
+        kept.keep(root, vec![7, 8], 2);
+        assert!(kept.bytes() > 0);
+        let parent = kept.parent_of(&store, b).expect("kept for b");
+        assert_eq!((parent.enabled, parent.fired), (&[7, 8][..], 8));
+        kept.expanded(&store, a);
+        assert!(kept.parent_of(&store, b).is_some(), "b still waits");
+        kept.expanded(&store, b);
+        assert!(kept.parent_of(&store, b).is_none());
+        assert_eq!(kept.bytes(), 0);
+
+        let mut cramped = Kept::new(8);
+        cramped.keep(root, vec![7, 8], 2);
+        assert!(cramped.parent_of(&store, a).is_none());
+        assert_eq!(cramped.bytes(), 0);
     }
 
     proptest! {
