@@ -1129,13 +1129,20 @@ mod tests {
         }
     }
 
-    /// What [`overflow`] says of every enabled transition of every
-    /// marking, against firing it.
-    fn overflow_as_fired<E: Encoding>(net: &PtNet, counts: &[u32]) -> Result<(), TestCaseError> {
+    /// The marking of `net` with `counts` tokens on its first places (at
+    /// most what the encoding holds).
+    pub(super) fn marking_of<E: Encoding>(net: &PtNet, counts: &[u32]) -> Vec<u64> {
         let mut m = vec![0u64; E::words(net.n_places())];
         for (p, &c) in counts.iter().enumerate().take(net.n_places()) {
             E::set(&mut m, p as u32, c.min(E::MAX));
         }
+        m
+    }
+
+    /// What [`overflow`] says of every enabled transition of every
+    /// marking, against firing it.
+    fn overflow_as_fired<E: Encoding>(net: &PtNet, counts: &[u32]) -> Result<(), TestCaseError> {
+        let m = marking_of::<E>(net, counts);
         let mut out = m.clone();
         for t in (0..net.n_real).filter(|&t| enabled::enabled::<E>(net, &m, t)) {
             prop_assert_eq!(

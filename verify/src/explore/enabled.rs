@@ -201,10 +201,7 @@ mod tests {
     /// one `after` leaves to judge.
     fn as_from_scratch<E: Encoding>(net: &PtNet, counts: &[u32]) -> Result<(), TestCaseError> {
         let words = E::words(net.n_places());
-        let mut m = vec![0u64; words];
-        for (p, &c) in counts.iter().enumerate().take(net.n_places()) {
-            E::set(&mut m, p as u32, c.min(E::MAX));
-        }
+        let m = super::super::tests::marking_of::<E>(net, counts);
         let mut s = Scratch::new(net.n_all(), words);
         let gen = s.next_gen();
         from_scratch::<E>(net, &m, &mut s, gen);

@@ -363,33 +363,17 @@ impl<'n> Walker<'n> {
         cut: Option<u32>,
         budget: &mut usize,
     ) -> Result<Reach, OutOfBudget> {
+        // Handed back at the end; a walk past its budget lets them go
+        // (the next starts afresh).
         let mut sets = self.sets.take().unwrap_or_default();
         sets.clear();
-        let reach = self.walk_with(&mut sets, seeds, drone, stop, colours, blocked, cut, budget);
-        self.sets.set(Some(sets));
-        reach
-    }
-
-    /// [`Walker::walk`], in `sets` (empty).
-    #[allow(clippy::too_many_arguments)]
-    fn walk_with(
-        &self,
-        sets: &mut Sets,
-        seeds: Vec<(NodeId, Colour)>,
-        drone: Option<u16>,
-        stop: &dyn Fn(NodeId) -> bool,
-        colours: bool,
-        blocked: &dyn Fn(NodeId) -> bool,
-        cut: Option<u32>,
-        budget: &mut usize,
-    ) -> Result<Reach, OutOfBudget> {
         let Sets {
             seen,
             visited,
             crossed,
             queued,
             stops,
-        } = sets;
+        } = &mut *sets;
         // Joins waiting for their block's branches, each once: a block of
         // 200 drones' branches, all skipped, would queue its join 200
         // times, and each wave below looks at every one.
@@ -491,6 +475,7 @@ impl<'n> Walker<'n> {
                 break;
             }
         }
+        self.sets.set(Some(sets));
         Ok(reach)
     }
 
