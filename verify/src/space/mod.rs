@@ -27,6 +27,7 @@ pub(crate) mod flight;
 pub(crate) mod model;
 mod near;
 pub(crate) mod shape;
+mod step;
 mod too_close;
 pub(crate) mod walk;
 

@@ -18,9 +18,9 @@
 //! as come to its end. Going down every drone's branch made each walk cross
 //! the whole mission, the spatial check's work the square of the fleet's.
 //! Which branches those are, for each drone, is worked out once per block
-//! (`block.rs`). Down a row of steps that only pass the token on, a walk
-//! for one drone jumps to the start of that drone's next action there
-//! (`chain.rs`).
+//! (`block.rs`). Down a row of fragments with one way in and one way out
+//! holding none of its actions (`step.rs`), a walk for one drone jumps to
+//! the fragment that holds its next one (`chain.rs`).
 //!
 //! Loop counters are followed exactly where a `RepeatFor` guard reads them
 //! (so a body flown three times is flown three times, not for ever); a
@@ -37,7 +37,7 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 use eamos_petri::net::{Colour, ColourOp, Net, NodeId, PlaceKind, TransitionKind};
 
 use super::block::{Crossing, Out, Waits};
-use super::chain::{Chains, Closed};
+use super::chain::Chains;
 
 pub(crate) struct Walker<'n> {
     net: &'n Net,
@@ -49,7 +49,7 @@ pub(crate) struct Walker<'n> {
     /// the branches it goes down; by join, the ends it waits for.
     crossings: HashMap<NodeId, Crossing>,
     waits: HashMap<NodeId, Waits>,
-    /// Runs of plain steps a walk for a drone jumps (`chain.rs`).
+    /// Rows of steps a walk for a drone jumps (`chain.rs`, `step.rs`).
     chains: Chains,
     /// The sets of the last walk, for the next (see [`Sets`]).
     sets: Cell<Option<Box<Sets>>>,
@@ -157,8 +157,9 @@ impl<'n> Walker<'n> {
             chains: Chains::default(),
             sets: Cell::new(None),
         };
-        let closed = walker.blocks();
-        walker.chains = Chains::new(net, |p| followed(net, p), &closed);
+        walker.blocks();
+        let steps = super::step::steps(net, |p| followed(net, p), &walker.fork_of);
+        walker.chains = Chains::new(&steps);
         walker
     }
 
@@ -166,37 +167,27 @@ impl<'n> Walker<'n> {
     /// to its join, and what a walk for each drone does with them. Inner
     /// blocks first: a branch that comes to a closed inner block jumps from
     /// its fork to its join with what the block holds, so that each place
-    /// is followed once, not once per block around it. Gives the closed
-    /// blocks whose fork has one join (`chain.rs`).
-    fn blocks(&mut self) -> HashMap<NodeId, Closed> {
+    /// is followed once, not once per block around it.
+    fn blocks(&mut self) {
         // A `Do` region's fork has up to three joins (its two ends and its
         // exit), all after its one followed branch, the body: its block
         // closes at the first in the net's order, and a walk waits at the
         // others for every input.
         let mut join_of: HashMap<NodeId, NodeId> = HashMap::default();
-        let mut joins: HashMap<NodeId, usize> = HashMap::default();
         for (join, _) in self.net.transitions() {
             if let Some(&fork) = self.fork_of.get(&join) {
                 join_of.entry(fork).or_insert(join);
-                *joins.entry(fork).or_default() += 1;
             }
         }
         let mut done: HashMap<NodeId, Option<Block>> = HashMap::default();
         for &fork in join_of.keys() {
             self.block(fork, &join_of, &mut done);
         }
-        let mut closed = HashMap::default();
         for (fork, block) in done {
             let block = block.expect("every block is finished");
-            let join = join_of[&fork];
-            self.waits.insert(join, block.waits);
+            self.waits.insert(join_of[&fork], block.waits);
             self.crossings.insert(fork, block.crossing);
-            if let Some(inner) = block.inner.filter(|_| joins[&fork] == 1) {
-                let drones = inner.drones.into_iter().collect();
-                closed.insert(fork, Closed { join, drones });
-            }
         }
-        closed
     }
 
     /// The block `fork` opens, worked out into `done` (`None` there while
@@ -315,6 +306,14 @@ impl<'n> Walker<'n> {
         branch
     }
 
+    /// The same walker, walking every step itself: what the jumps must
+    /// agree with.
+    #[cfg(test)]
+    fn without_jumps(mut self) -> Self {
+        self.chains = Chains::default();
+        self
+    }
+
     /// Loop counters below this are exact; at it, any count from it up.
     pub(crate) fn cap(&self) -> u32 {
         self.cap
@@ -390,7 +389,7 @@ impl<'n> Walker<'n> {
                 }
                 visited.insert(p);
                 *budget = budget.checked_sub(1).ok_or(OutOfBudget)?;
-                if let Some(to) = drone.and_then(|d| self.chains.jump(p, d)) {
+                if let Some(to) = drone.and_then(|d| self.chains.jump(p, d, cut.is_some())) {
                     stack.push((to, c, cut));
                     continue;
                 }
@@ -697,5 +696,79 @@ mod tests {
     fn a_join_waits_for_the_branches_of_the_drone_walked() {
         let text = "package P\n\nvar (\n\tB Quadcopter\n\tC Quadcopter\n\tE Quadcopter\n)\n\nfunc SEQ_M() {\n\tB.Arm()\n\tB.Takeoff(2)\n\tPAR_All()\n\tB.Land()\n}\n\nfunc PAR_All() {\n\tC.Arm()\n\tSEQ_B()\n\tE.Arm()\n}\n\nfunc SEQ_B() {\n\tB.Hover(1)\n\tB.FlyTo(3, 0, 2)\n}\n";
         assert_next_is_only_a_hover(&net(text));
+    }
+
+    /// On generated missions with every construct, a walk for one drone
+    /// finds the same next actions with the colours they start with,
+    /// jumping rows of steps (`chain.rs`, `step.rs`) or walking every
+    /// step: from the start, and from every end and cancel of each of
+    /// the drone's actions, with colours and without, before and after a
+    /// cancel.
+    #[test]
+    fn a_walk_finds_the_same_next_actions_jumping_as_step_by_step() {
+        use eamos_gen::{generate, Options, Size};
+        for (drones, nodes, seed) in [(4, 300, 1), (12, 800, 4), (6, 600, 7), (20, 1500, 12)] {
+            let mission = generate(&Options::new(drones, Size::Nodes(nodes), seed)).unwrap();
+            let net = net(&mission.text);
+            let jumping = Walker::new(&net);
+            let stepping = Walker::new(&net).without_jumps();
+            for d in 0..drones as u16 {
+                let own = starts(&net, d);
+                let stop = |t: NodeId| own.contains(&t);
+                let actions = net.transitions().filter_map(|(_, t)| match &t.kind {
+                    TransitionKind::ActionStart(a) if a.drone.0 == d => Some(a.clone()),
+                    _ => None,
+                });
+                let mut froms: Vec<(Vec<NodeId>, bool)> = vec![(Vec::new(), false)];
+                for a in actions.collect::<Vec<_>>() {
+                    for cancel in [false, true] {
+                        let via = net.transitions().filter(|(_, t)| match &t.kind {
+                            TransitionKind::ActionEnd(b) => !cancel && *b == a,
+                            TransitionKind::ActionCancel(b) => cancel && *b == a,
+                            _ => false,
+                        });
+                        froms.push((via.map(|(t, _)| t).collect(), cancel));
+                    }
+                }
+                for (via, cancel) in froms {
+                    for colours in [true, false] {
+                        let walk = |w: &Walker| {
+                            let mut budget = usize::MAX;
+                            let reach = if via.is_empty() {
+                                w.walk(
+                                    w.initial(),
+                                    Some(d),
+                                    &stop,
+                                    colours,
+                                    &|_| false,
+                                    None,
+                                    &mut budget,
+                                )
+                            } else {
+                                w.walk_after(
+                                    &via,
+                                    &[],
+                                    cancel,
+                                    Some(d),
+                                    &stop,
+                                    colours,
+                                    &|_| false,
+                                    &mut budget,
+                                )
+                            };
+                            let mut stops = reach.unwrap().stops;
+                            stops.sort();
+                            stops
+                        };
+                        assert_eq!(
+                            walk(&jumping),
+                            walk(&stepping),
+                            "{drones} drones, seed {seed}: D{} from {via:?} (cancel {cancel}, colours {colours})",
+                            d + 1
+                        );
+                    }
+                }
+            }
+        }
     }
 }
