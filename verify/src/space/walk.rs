@@ -159,7 +159,7 @@ impl<'n> Walker<'n> {
         };
         walker.blocks();
         let steps = super::step::steps(net, |p| followed(net, p), &walker.fork_of);
-        walker.chains = Chains::new(&steps);
+        walker.chains = Chains::new(&steps, net.graph.node_count());
         walker
     }
 
