@@ -33,6 +33,8 @@ pub struct Entry {
     pub fleet: Option<usize>,
     /// The goal for it, in seconds.
     pub goal_s: Option<f64>,
+    /// How many times it is checked: its time is the median of the runs.
+    pub runs: usize,
 }
 
 /// What checking one net gave.
@@ -46,6 +48,13 @@ pub struct Checked {
 
 /// The fleets of the growth series.
 pub const FLEETS: [usize; 4] = [50, 100, 250, 500];
+
+/// Runs of each check of the growth series. Its exponent is fitted to
+/// four times of a tenth of a second or less, which move by a sixth from
+/// one run to the next on a busy machine: one run each moved the
+/// exponent by 0.05 between reports of the same code; five cost about
+/// two seconds.
+pub const SERIES_RUNS: usize = 5;
 
 /// Memory bound of the corpus checks, in MB: a net that needs more is
 /// reported undecided rather than left to run for minutes.
@@ -77,6 +86,7 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
             spatial: false,
             fleet: None,
             goal_s,
+            runs: 1,
         });
     }
     for (drones, seed, mix) in [
@@ -99,6 +109,7 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
             spatial: false,
             fleet: None,
             goal_s: Some(5.0),
+            runs: 1,
         });
     }
     for drones in FLEETS {
@@ -114,13 +125,36 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
             spatial: true,
             fleet: Some(drones),
             goal_s: None,
+            runs: SERIES_RUNS,
         });
     }
     Ok(out)
 }
 
-/// `eamos check --json` of one entry, as a whole process.
+/// `eamos check --json` of one entry, as a whole process, `entry.runs`
+/// times: see [`median`].
 pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
+    let runs = (0..entry.runs.max(1)).map(|_| check_once(exe, entry));
+    Ok(median(runs.collect::<Result<_, _>>()?))
+}
+
+/// The run of median time (of at least one), with the largest peak of
+/// any run, decided only if every run was.
+fn median(mut runs: Vec<Checked>) -> Checked {
+    runs.sort_by_key(|c| c.wall);
+    let peak_kib = runs.iter().map(|c| c.peak_kib).max().unwrap_or(0);
+    let decided = runs.iter().all(|c| c.decided);
+    let mut mid = runs.swap_remove(runs.len() / 2);
+    mid.peak_kib = peak_kib;
+    if !decided {
+        mid.decided = false;
+        mid.verdict = "**undecided**".into();
+    }
+    mid
+}
+
+/// `eamos check --json` of one entry, once.
+fn check_once(exe: &Path, entry: &Entry) -> Result<Checked, String> {
     let mut args: Vec<String> = vec!["check".into(), "--json".into()];
     args.push(format!("--max-memory={MAX_MEMORY_MB}"));
     if entry.deadlock_only {
@@ -185,4 +219,47 @@ pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
         wall,
         peak_kib,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(ms: u64, peak_kib: u64, decided: bool) -> Checked {
+        Checked {
+            verdict: if decided {
+                "every property decided"
+            } else {
+                "**undecided**"
+            }
+            .into(),
+            decided,
+            states: 1,
+            wall: Duration::from_millis(ms),
+            peak_kib,
+        }
+    }
+
+    #[test]
+    fn a_series_check_takes_the_median_time_and_the_largest_peak() {
+        let runs = vec![
+            run(40, 900, true),
+            run(10, 700, true),
+            run(20, 800, true),
+            run(90, 600, true),
+            run(30, 950, true),
+        ];
+        let m = median(runs);
+        assert_eq!(m.wall, Duration::from_millis(30));
+        assert_eq!(m.peak_kib, 950);
+        assert!(m.decided);
+        assert_eq!(median(vec![run(5, 1, true)]).wall, Duration::from_millis(5));
+    }
+
+    #[test]
+    fn a_series_check_is_decided_only_if_every_run_was() {
+        let m = median(vec![run(10, 1, true), run(20, 1, false), run(30, 1, true)]);
+        assert!(!m.decided);
+        assert_eq!(m.verdict, "**undecided**");
+    }
 }

@@ -587,7 +587,14 @@ pub fn table(m: &Measured) -> String {
         } else {
             "every property but the spatial ones"
         };
-        let what = format!("`eamos check`, corpus: `{}`, {asked}", entry.generator);
+        let median = match entry.runs {
+            0 | 1 => String::new(),
+            n => format!(" (median of {n} runs)"),
+        };
+        let what = format!(
+            "`eamos check`, corpus: `{}`, {asked}{median}",
+            entry.generator
+        );
         let figure = format!(
             "{}: {} ({} states, peak memory {})",
             c.verdict,
@@ -843,6 +850,7 @@ mod tests {
             spatial: true,
             fleet: Some(n),
             goal_s: None,
+            runs: 1,
         };
         let checked = |seconds: f64, peak_kib: u64| crate::corpus::Checked {
             verdict: "every property decided".into(),

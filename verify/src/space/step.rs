@@ -79,10 +79,10 @@ pub(crate) fn steps(
     for (p, place) in net.places().filter(|&(p, _)| followed(p)) {
         // Past the head of a loop `p` enters, to where it is left.
         let mut q = exit[p.index()];
-        let depth = place.depth.saturating_add(1);
+        let floor = place.depth.saturating_add(1);
         let same_depth = |q: u32| {
             let node = body.nodes[q as usize];
-            node.flags & PLACE != 0 && node.floor == depth
+            node.flags & PLACE != 0 && node.floor == floor
         };
         while q != NONE && !same_depth(q) {
             q = exit[q as usize];
@@ -91,7 +91,7 @@ pub(crate) fn steps(
             continue;
         }
         let q = NodeId::new(q as usize);
-        if let Some(step) = body.step(p, q) {
+        if let Some(step) = body.step(p, q, place.depth) {
             steps.insert(p, step);
         }
     }
@@ -319,12 +319,9 @@ struct Body<'a> {
 }
 
 impl Body<'_> {
-    /// The fragment from `p` to `q`, if a walk may cross it in one step.
-    fn step(&mut self, p: NodeId, q: NodeId) -> Option<Step> {
-        let depth = self.net.place(p)?.depth;
-        if self.net.place(q)?.depth != depth {
-            return None;
-        }
+    /// The fragment from `p` to `q`, both `depth` loops deep, if a walk
+    /// may cross it in one step.
+    fn step(&mut self, p: NodeId, q: NodeId, depth: u8) -> Option<Step> {
         let mut step = Step {
             to: q,
             drones: Vec::new(),

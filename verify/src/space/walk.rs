@@ -565,6 +565,8 @@ fn followed(net: &Net, p: NodeId) -> bool {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
     use super::*;
 
     fn net(text: &str) -> Net {
@@ -698,12 +700,31 @@ mod tests {
         assert_next_is_only_a_hover(&net(text));
     }
 
+    /// Where walks for drone `d` set out from: the mission's start (no
+    /// transition), and the ends, then the cancels, of each of its actions.
+    fn walks_of(net: &Net, d: u16) -> Vec<(Vec<NodeId>, bool)> {
+        let mut by_action: BTreeMap<(u32, bool), Vec<NodeId>> = BTreeMap::new();
+        for (t, tr) in net.transitions() {
+            let (a, cancel) = match &tr.kind {
+                TransitionKind::ActionEnd(a) => (a, false),
+                TransitionKind::ActionCancel(a) => (a, true),
+                _ => continue,
+            };
+            if a.drone.0 == d {
+                by_action.entry((a.instance, cancel)).or_default().push(t);
+            }
+        }
+        let after = by_action
+            .into_iter()
+            .map(|((_, cancel), via)| (via, cancel));
+        std::iter::once((Vec::new(), false)).chain(after).collect()
+    }
+
     /// On generated missions with every construct, a walk for one drone
     /// finds the same next actions with the colours they start with,
     /// jumping rows of steps (`chain.rs`, `step.rs`) or walking every
     /// step: from the start, and from every end and cancel of each of
-    /// the drone's actions, with colours and without, before and after a
-    /// cancel.
+    /// the drone's actions, with colours and without.
     #[test]
     fn a_walk_finds_the_same_next_actions_jumping_as_step_by_step() {
         use eamos_gen::{generate, Options, Size};
@@ -715,46 +736,31 @@ mod tests {
             for d in 0..drones as u16 {
                 let own = starts(&net, d);
                 let stop = |t: NodeId| own.contains(&t);
-                let actions = net.transitions().filter_map(|(_, t)| match &t.kind {
-                    TransitionKind::ActionStart(a) if a.drone.0 == d => Some(a.clone()),
-                    _ => None,
-                });
-                let mut froms: Vec<(Vec<NodeId>, bool)> = vec![(Vec::new(), false)];
-                for a in actions.collect::<Vec<_>>() {
-                    for cancel in [false, true] {
-                        let via = net.transitions().filter(|(_, t)| match &t.kind {
-                            TransitionKind::ActionEnd(b) => !cancel && *b == a,
-                            TransitionKind::ActionCancel(b) => cancel && *b == a,
-                            _ => false,
-                        });
-                        froms.push((via.map(|(t, _)| t).collect(), cancel));
-                    }
-                }
-                for (via, cancel) in froms {
+                for (via, cancel) in walks_of(&net, d) {
                     for colours in [true, false] {
                         let walk = |w: &Walker| {
                             let mut budget = usize::MAX;
-                            let reach = if via.is_empty() {
-                                w.walk(
+                            let never = |_| false;
+                            let reach = match via.is_empty() {
+                                true => w.walk(
                                     w.initial(),
                                     Some(d),
                                     &stop,
                                     colours,
-                                    &|_| false,
+                                    &never,
                                     None,
                                     &mut budget,
-                                )
-                            } else {
-                                w.walk_after(
+                                ),
+                                false => w.walk_after(
                                     &via,
                                     &[],
                                     cancel,
                                     Some(d),
                                     &stop,
                                     colours,
-                                    &|_| false,
+                                    &never,
                                     &mut budget,
-                                )
+                                ),
                             };
                             let mut stops = reach.unwrap().stops;
                             stops.sort();
