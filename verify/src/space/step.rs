@@ -77,25 +77,29 @@ pub(crate) fn steps(
     };
     let mut steps = HashMap::default();
     for (p, place) in net.places().filter(|&(p, _)| followed(p)) {
-        // Past the head of a loop `p` enters, to where it is left.
-        let mut q = exit[p.index()];
-        let floor = place.depth.saturating_add(1);
-        let same_depth = |q: u32| {
-            let node = body.nodes[q as usize];
-            node.flags & PLACE != 0 && node.floor == floor
-        };
-        while q != NONE && !same_depth(q) {
-            q = exit[q as usize];
-        }
-        if q == NONE {
-            continue;
-        }
-        let q = NodeId::new(q as usize);
-        if let Some(step) = body.step(p, q, place.depth) {
+        let exit = exit_of(&exit, &body.nodes, p.index(), place.depth);
+        if let Some(step) = exit.and_then(|q| body.step(p, q, place.depth)) {
             steps.insert(p, step);
         }
     }
     steps
+}
+
+/// The nearest place post-dominating place `p` that is `depth` loops deep
+/// as `p` is: past the head of a loop `p` enters, to where it is left;
+/// none once a post-dominator is shallower (`p`'s own loop is left there,
+/// and a body holding it would be no step).
+fn exit_of(exit: &[u32], nodes: &[Node], p: usize, depth: u8) -> Option<NodeId> {
+    let floor = depth.saturating_add(1);
+    let mut q = exit[p];
+    while q != NONE {
+        let node = nodes[q as usize];
+        if node.flags & PLACE != 0 && node.floor <= floor {
+            return (node.floor == floor).then(|| NodeId::new(q as usize));
+        }
+        q = exit[q as usize];
+    }
+    None
 }
 
 const NONE: u32 = u32::MAX;
