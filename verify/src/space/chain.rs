@@ -14,7 +14,7 @@
 //! of its drone's actions (or, after a cancel, touches a `Do` region's
 //! state, which it must walk itself), or to the chain's last place.
 
-use rustc_hash::FxHashMap as HashMap;
+use rustc_hash::{FxHashMap as HashMap, FxHashSet as HashSet};
 
 use eamos_petri::net::NodeId;
 
@@ -50,15 +50,12 @@ impl Chains {
             at: vec![NONE; nodes],
             chains: Vec::new(),
         };
-        let mut before: HashMap<NodeId, u32> = HashMap::default();
-        for step in steps.values() {
-            *before.entry(step.to).or_default() += 1;
-        }
+        let led_into: HashSet<NodeId> = steps.values().map(|s| s.to).collect();
         // Chains start where no step leads in, then (places on a cycle of
         // steps) anywhere not yet in one; a place belongs to the first
         // chain that reaches it, and ends any other that does.
         let mut heads: Vec<NodeId> = steps.keys().copied().collect();
-        heads.sort_unstable_by_key(|p| (before.contains_key(p), *p));
+        heads.sort_unstable_by_key(|p| (led_into.contains(p), *p));
         for head in heads {
             if chains.at[head.index()] != NONE {
                 continue;
