@@ -49,7 +49,33 @@ impl<T: Clone> Csr<T> {
     }
 }
 
+impl<T: Copy + Default> Csr<T> {
+    /// `n` lists from `(list, item)` pairs, each list's items in the
+    /// pairs' order: a counting sort, no list of its own per list.
+    pub(crate) fn from_pairs(n: usize, pairs: &[(u32, T)]) -> Self {
+        let mut offsets = vec![0u32; n + 1];
+        for &(i, _) in pairs {
+            offsets[i as usize + 1] += 1;
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut items = vec![T::default(); pairs.len()];
+        for &(i, item) in pairs {
+            items[fill[i as usize] as usize] = item;
+            fill[i as usize] += 1;
+        }
+        Csr { offsets, items }
+    }
+}
+
 impl<T> Csr<T> {
+    /// How many lists.
+    pub(crate) fn len(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
     #[inline]
     pub(crate) fn get(&self, i: usize) -> &[T] {
         &self.items[self.offsets[i] as usize..self.offsets[i + 1] as usize]

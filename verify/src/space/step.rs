@@ -41,6 +41,8 @@ use rustc_hash::FxHashMap as HashMap;
 
 use eamos_petri::net::{ColourOp, GuardKind, Net, NodeId, PlaceKind};
 
+use crate::ptnet::Csr;
+
 /// A fragment a walk for a drone not among `drones` crosses in one step.
 pub(crate) struct Step {
     /// Where the walk comes out: the place after the fragment.
@@ -107,37 +109,8 @@ const NONE: u32 = u32::MAX;
 /// The control flow as arrays: each node's successors and predecessors,
 /// over the arcs a walk follows.
 struct Flow {
-    succ: Csr,
-    pred: Csr,
-}
-
-/// Adjacency lists packed in one array, `starts[n]..starts[n + 1]`.
-struct Csr {
-    starts: Vec<u32>,
-    ends: Vec<u32>,
-}
-
-impl Csr {
-    fn new(n: usize, arcs: &[(u32, u32)]) -> Self {
-        let mut starts = vec![0u32; n + 1];
-        for &(from, _) in arcs {
-            starts[from as usize + 1] += 1;
-        }
-        for i in 0..n {
-            starts[i + 1] += starts[i];
-        }
-        let mut fill = starts.clone();
-        let mut ends = vec![0u32; arcs.len()];
-        for &(from, to) in arcs {
-            ends[fill[from as usize] as usize] = to;
-            fill[from as usize] += 1;
-        }
-        Csr { starts, ends }
-    }
-
-    fn of(&self, n: usize) -> &[u32] {
-        &self.ends[self.starts[n] as usize..self.starts[n + 1] as usize]
-    }
+    succ: Csr<u32>,
+    pred: Csr<u32>,
 }
 
 impl Flow {
@@ -151,13 +124,13 @@ impl Flow {
             .collect();
         let back: Vec<(u32, u32)> = arcs.iter().map(|&(a, b)| (b, a)).collect();
         Flow {
-            succ: Csr::new(n, &arcs),
-            pred: Csr::new(n, &back),
+            succ: Csr::from_pairs(n, &arcs),
+            pred: Csr::from_pairs(n, &back),
         }
     }
 
     fn len(&self) -> usize {
-        self.succ.starts.len() - 1
+        self.succ.len()
     }
 }
 
@@ -172,7 +145,7 @@ fn post_dominators(flow: &Flow, root: usize) -> Vec<u32> {
     let mut stack: Vec<(u32, u32)> = vec![(root as u32, 0)];
     seen[root] = true;
     while let Some((n, i)) = stack.last_mut() {
-        let preds = flow.pred.of(*n as usize);
+        let preds = flow.pred.get(*n as usize);
         if let Some(&m) = preds.get(*i as usize) {
             *i += 1;
             if !seen[m as usize] {
@@ -203,7 +176,7 @@ fn post_dominators(flow: &Flow, root: usize) -> Vec<u32> {
         changed = false;
         for &n in order.iter().rev().skip(1) {
             let mut next = NONE;
-            for &s in flow.succ.of(n as usize) {
+            for &s in flow.succ.get(n as usize) {
                 if idom[s as usize] == NONE {
                     continue;
                 }
@@ -300,7 +273,11 @@ fn nodes(net: &Net, flow: &Flow, partners: &HashMap<usize, Vec<usize>>) -> Vec<N
     }
     for t in 0..nodes.len() {
         if nodes[t].flags & COUNTS != 0 {
-            let inputs = flow.pred.of(t).iter().map(|&i| nodes[i as usize].floor - 1);
+            let inputs = flow
+                .pred
+                .get(t)
+                .iter()
+                .map(|&i| nodes[i as usize].floor - 1);
             nodes[t].floor = inputs.min().unwrap_or(0);
         }
     }
@@ -377,7 +354,7 @@ impl Body<'_> {
             if node.flags & BLOCK != 0 {
                 blocks.push(n as usize);
             }
-            for &m in self.flow.succ.of(n as usize) {
+            for &m in self.flow.succ.get(n as usize) {
                 if m as usize != q.index() && self.mark[m as usize] != epoch {
                     self.mark[m as usize] = epoch;
                     stack.push(m);
