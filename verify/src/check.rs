@@ -137,6 +137,9 @@ pub(crate) struct Subject {
     pub space: Option<space::Prepared>,
     /// How many `RepeatFor` loops are folded ([`crate::fold`]).
     pub folded: usize,
+    /// The concurrency relation of `pt` when it was worked out beside the
+    /// spatial model; `None`: worked out here if the check needs it.
+    pub relation: Option<Concurrency>,
 }
 
 pub(crate) fn check(subject: Subject, opts: &Options) -> Report {
@@ -164,6 +167,7 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         limits,
         space,
         folded: _,
+        relation,
     } = subject;
     if !limits.is_empty() {
         let reason = format!("not explored, see `eamos::{}`", limits[0].code);
@@ -213,7 +217,7 @@ fn check_asked(subject: Subject, opts: &Options) -> Report {
         }
     }
     if pt.fits_bits() {
-        let conc = Concurrency::compute(&pt);
+        let conc = relation.unwrap_or_else(|| Concurrency::compute(&pt));
         let mut monitors: Vec<MonitorKind> = exclusive
             .iter()
             .filter(|&&(a, b)| conc.get(a, b))

@@ -66,7 +66,8 @@ pub fn check_net(
             .clone()
             .unwrap_or_else(|| Space::default_for(net.drones.len()))
     });
-    let subject = |fold| mission::subject(net, profiles, source, space.as_ref(), fold);
+    let relation = options.goal == Goal::All;
+    let subject = |fold| mission::subject(net, profiles, source, space.as_ref(), fold, relation);
     let folded = subject(options.structural);
     let loops = folded.folded;
     let mut report = check::check(folded, options);

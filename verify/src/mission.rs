@@ -38,6 +38,7 @@ use crate::ptnet::{PlaceInfo, PtNet, RawTransition, Seeds, StepInfo, MAX_COUNTED
 use crate::report::{Finding, FindingKind, InputKind, Label, Limit};
 use crate::space::walk::Walker;
 use crate::space::{airspace, flight, model, Prepared, Space};
+use crate::structural::Concurrency;
 
 pub(crate) fn action_text(net: &Net, a: &ActionRef) -> String {
     names::action_text(&net.drones, a)
@@ -174,13 +175,16 @@ fn step_info(net: &Net, t: &eamos_petri::net::Transition, src: Option<&str>) -> 
     }
 }
 
-/// Builds what the checker needs from a mission net.
+/// Builds what the checker needs from a mission net; with `relation`, the
+/// concurrency relation too, beside the spatial model (see
+/// [`Subject::relation`]).
 pub(crate) fn subject(
     net: &Net,
     profiles: &ProfileTable,
     src: Option<&str>,
     space: Option<&Space>,
     fold: bool,
+    relation: bool,
 ) -> Subject {
     let domain = |d: DroneId, name: &str| -> Option<Domain> {
         let profile = profiles.get(net.profiles.get(d.0 as usize)?)?;
@@ -217,8 +221,11 @@ pub(crate) fn subject(
     let checked = verdicts.len();
 
     let mut place_index = vec![u32::MAX; net.graph.node_count()];
-    let mut places = Vec::new();
-    let mut initial = Vec::new();
+    // Sized before they are filled (a loop's counter places come on top):
+    // grown by doubling, their copies missed the cache at every step.
+    let (n_places, n_transitions) = (net.places().count(), net.transitions().count());
+    let mut places = Vec::with_capacity(n_places);
+    let mut initial = Vec::with_capacity(n_places);
     let mut running = HashMap::new();
     let mut running_by_drone: HashMap<u16, Vec<(u32, String)>> = HashMap::new();
     for (n, p) in net.places() {
@@ -317,10 +324,10 @@ pub(crate) fn subject(
             });
         }
     }
-    let mut steps = Vec::new();
-    let mut raw = Vec::new();
+    let mut steps = Vec::with_capacity(n_transitions);
+    let mut raw = Vec::with_capacity(n_transitions);
     // The transition of the net each compact transition copies.
-    let mut origins: Vec<NodeId> = Vec::new();
+    let mut origins: Vec<NodeId> = Vec::with_capacity(n_transitions);
     let mut starts = Vec::new();
     let mut loops = Vec::new();
     let mut waits = Vec::new();
@@ -471,9 +478,19 @@ pub(crate) fn subject(
     }
     exclusive.sort_unstable();
     let final_place = Some(place_index[net.final_place.index()]);
-    let space = space.map(|space| prepare(net, profiles, src, space, &place_index, &origins));
-    let mut pt = PtNet::new(places, steps, raw, initial, final_place);
-    pt.seeds = Seeds::First;
+    // The spatial model and the concurrency relation need nothing of each
+    // other: two threads, one each (at 500 drones each is about a tenth
+    // of the check).
+    let (space, (pt, relation)) = rayon::join(
+        || space.map(|space| prepare(net, profiles, src, space, &place_index, &origins)),
+        || {
+            let mut pt = PtNet::new(places, steps, raw, initial, final_place);
+            pt.seeds = Seeds::First;
+            let relation = (relation && limits.is_empty() && pt.fits_bits())
+                .then(|| Concurrency::compute(&pt));
+            (pt, relation)
+        },
+    );
     Subject {
         pt,
         input: InputKind::Mission,
@@ -487,6 +504,7 @@ pub(crate) fn subject(
         limits,
         space,
         folded: folded.len(),
+        relation,
     }
 }
 
@@ -501,11 +519,13 @@ fn prepare(
 ) -> Prepared {
     let names = Names::new(net, src);
     let too_large = |_| "the mission is too large to follow every drone's legs".to_string();
-    // One walker serves both analyses (it indexes the net's blocks once).
+    // One walker serves both analyses (it indexes the net's blocks once),
+    // each on a thread of its own: neither needs the other.
     let walker = Walker::new(net);
-    let positions = model::positions(net, profiles, &walker).map_err(too_large);
-    let flight =
-        flight::findings(net, profiles, &walker, &space.airspace, &names).map_err(too_large);
+    let (positions, flight) = rayon::join(
+        || model::positions(net, profiles, &walker).map_err(too_large),
+        || flight::findings(net, profiles, &walker, &space.airspace, &names).map_err(too_large),
+    );
     let airspace = match &positions {
         Ok(p) => Ok(airspace::findings(p, space, &names)),
         Err(e) => Err(e.clone()),

@@ -599,5 +599,6 @@ pub(crate) fn subject(net: &PnmlNet) -> Subject {
         limits: Vec::new(),
         space: None,
         folded: 0,
+        relation: None,
     }
 }

@@ -27,8 +27,8 @@
 //! counter that no guard reads stops counting past the largest count any
 //! guard tests, which keeps every walk finite.
 
-use std::cell::Cell;
 use std::collections::BTreeSet;
+use std::sync::Mutex;
 
 // The walks hash node indices by the million at a few hundred drones:
 // Fx, not SipHash (a net is the program's own data, not an adversary's).
@@ -51,8 +51,11 @@ pub(crate) struct Walker<'n> {
     waits: HashMap<NodeId, Waits>,
     /// Rows of steps a walk for a drone jumps (`chain.rs`, `step.rs`).
     chains: Chains,
-    /// The sets of the last walk, for the next (see [`Sets`]).
-    sets: Cell<Option<Box<Sets>>>,
+    /// The sets of the last walk, for the next (see [`Sets`]). Behind a
+    /// lock so that the positions and the flight states walk on two
+    /// threads; each walk takes the sets or, while the other thread holds
+    /// them, makes its own.
+    sets: Mutex<Option<Box<Sets>>>,
 }
 
 /// One branch of a `PAR_` block, from its fork to its join.
@@ -155,7 +158,7 @@ impl<'n> Walker<'n> {
             crossings: HashMap::default(),
             waits: HashMap::default(),
             chains: Chains::default(),
-            sets: Cell::new(None),
+            sets: Mutex::new(None),
         };
         walker.blocks();
         let steps = super::step::steps(net, |p| followed(net, p), &walker.fork_of);
@@ -364,7 +367,12 @@ impl<'n> Walker<'n> {
     ) -> Result<Reach, OutOfBudget> {
         // Handed back at the end; a walk past its budget lets them go
         // (the next starts afresh).
-        let mut sets = self.sets.take().unwrap_or_default();
+        let mut sets = self
+            .sets
+            .lock()
+            .ok()
+            .and_then(|mut kept| kept.take())
+            .unwrap_or_default();
         sets.clear();
         let Sets {
             seen,
@@ -474,7 +482,9 @@ impl<'n> Walker<'n> {
                 break;
             }
         }
-        self.sets.set(Some(sets));
+        if let Ok(mut kept) = self.sets.lock() {
+            *kept = Some(sets);
+        }
         Ok(reach)
     }
 
