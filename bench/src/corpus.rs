@@ -50,11 +50,11 @@ pub struct Checked {
 pub const FLEETS: [usize; 4] = [50, 100, 250, 500];
 
 /// Runs of each check of the growth series. Its exponent is fitted to
-/// four times of a tenth of a second or less, which move by a sixth from
-/// one run to the next on a busy machine: one run each moved the
-/// exponent by 0.05 between reports of the same code; five cost about
-/// two seconds.
-pub const SERIES_RUNS: usize = 5;
+/// four times of half a second or less, which move by a sixth from one
+/// run to the next on a busy machine: one run each moved the exponent by
+/// 0.05 between reports of the same code; seven cost about three seconds
+/// more than one. The runs are taken in turns ([`check_all`]).
+pub const SERIES_RUNS: usize = 7;
 
 /// Memory bound of the corpus checks, in MB: a net that needs more is
 /// reported undecided rather than left to run for minutes.
@@ -131,11 +131,39 @@ pub fn prepare(dir: &Path) -> Result<Vec<Entry>, String> {
     Ok(out)
 }
 
-/// `eamos check --json` of one entry, as a whole process, `entry.runs`
-/// times: see [`median`].
-pub fn check(exe: &Path, entry: &Entry) -> Result<Checked, String> {
-    let runs = (0..entry.runs.max(1)).map(|_| check_once(exe, entry));
-    Ok(median(runs.collect::<Result<_, _>>()?))
+/// `eamos check --json` of every entry, as a whole process, each
+/// `entry.runs` times (see [`median`]), the runs taken in turns: a loud
+/// stretch of the machine then slows every fleet of the series alike,
+/// where five runs of one fleet after another let it slow one fleet's
+/// five and bend the fitted exponent (a report once had the 50-drone
+/// check at 47 ms against 38-39 in turns with the others). `said` hears
+/// of each entry as its first run starts.
+pub fn check_all(
+    exe: &Path,
+    entries: Vec<Entry>,
+    said: impl Fn(&Entry),
+) -> Result<Vec<(Entry, Checked)>, String> {
+    let mut runs: Vec<Vec<Checked>> = entries.iter().map(|_| Vec::new()).collect();
+    for i in in_turns(&entries.iter().map(|e| e.runs.max(1)).collect::<Vec<_>>()) {
+        if runs[i].is_empty() {
+            said(&entries[i]);
+        }
+        runs[i].push(check_once(exe, &entries[i])?);
+    }
+    Ok(entries
+        .into_iter()
+        .zip(runs)
+        .map(|(e, r)| (e, median(r)))
+        .collect())
+}
+
+/// The order of the runs of entries that want `runs[i]` each: a round
+/// over every entry that wants another, round after round.
+fn in_turns(runs: &[usize]) -> Vec<usize> {
+    let rounds = runs.iter().copied().max().unwrap_or(0);
+    (0..rounds)
+        .flat_map(|round| (0..runs.len()).filter(move |&i| runs[i] > round))
+        .collect()
 }
 
 /// The run of median time (of at least one), with the largest peak of
@@ -254,6 +282,13 @@ mod tests {
         assert_eq!(m.peak_kib, 950);
         assert!(m.decided);
         assert_eq!(median(vec![run(5, 1, true)]).wall, Duration::from_millis(5));
+    }
+
+    #[test]
+    fn the_runs_of_the_series_are_taken_in_turns_one_round_after_another() {
+        assert_eq!(in_turns(&[1, 3, 1, 3]), vec![0, 1, 2, 3, 1, 3, 1, 3]);
+        assert_eq!(in_turns(&[2]), vec![0, 0]);
+        assert!(in_turns(&[]).is_empty());
     }
 
     #[test]

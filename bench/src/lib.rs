@@ -105,12 +105,9 @@ pub fn report(options: &Options) -> Result<String, String> {
     let corpus_dir = dir.join("corpus");
     std::fs::create_dir_all(&corpus_dir)
         .map_err(|e| format!("cannot create {}: {e}", corpus_dir.display()))?;
-    let mut corpus = Vec::new();
-    for entry in corpus::prepare(&corpus_dir)? {
-        eprintln!("  {}", entry.generator);
-        let checked = corpus::check(&exe, &entry)?;
-        corpus.push((entry, checked));
-    }
+    let corpus = corpus::check_all(&exe, corpus::prepare(&corpus_dir)?, |entry| {
+        eprintln!("  {}", entry.generator)
+    })?;
     eprintln!("timing the language server's diagnostics after an edit...");
     let lsp = lsp::measure(&exe, &facts.stress.mission)?;
     let mut fleets = Vec::new();
