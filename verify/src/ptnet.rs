@@ -411,3 +411,28 @@ impl PtNet {
             })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Csr;
+
+    #[test]
+    fn lists_pushed_read_back_and_truncating_keeps_the_first_ones() {
+        let mut c: Csr<u32> = Csr::default();
+        c.truncate(0);
+        assert_eq!(c.len(), 0);
+        c.push([3, 1]);
+        c.push([]);
+        c.push([7]);
+        assert_eq!(
+            (c.len(), c.get(0), c.get(1), c.get(2)),
+            (3, &[3, 1][..], &[][..], &[7][..])
+        );
+        c.truncate(1);
+        assert_eq!((c.len(), c.get(0)), (1, &[3, 1][..]));
+        c.push([9]);
+        assert_eq!(c.get(1), &[9]);
+        c.truncate(5);
+        assert_eq!(c.len(), 2);
+    }
+}
